@@ -14,9 +14,8 @@
 use core::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI, TAU};
 
 use glam::Vec2;
-use num_traits::Float;
 
-use crate::{OpticsError, Result};
+use crate::{math, OpticsError, Result};
 
 /// A shape an aperture can take. Points are in units of the aperture radius.
 pub trait ApertureShape {
@@ -71,7 +70,7 @@ impl ApertureShape for Disk {
         } else {
             (b, FRAC_PI_2 - FRAC_PI_4 * (a / b))
         };
-        Vec2::new(r * theta.cos(), r * theta.sin())
+        Vec2::new(r * math::cos(theta), r * math::sin(theta))
     }
     fn contains(&self, p: Vec2) -> bool {
         p.length_squared() <= 1.0 + EDGE_TOLERANCE
@@ -130,7 +129,7 @@ impl RegularPolygon {
     /// Vertex `k` (mod the number of blades).
     pub fn vertex(&self, k: u32) -> Vec2 {
         let a = self.rotation + (k % self.blades) as f32 * self.sector;
-        Vec2::new(a.cos(), a.sin())
+        Vec2::new(math::cos(a), math::sin(a))
     }
 }
 
@@ -140,20 +139,20 @@ impl ApertureShape for RegularPolygon {
         // uniformly with the square-root warp.
         let (k, ux) = split(u.x, self.blades);
         let (a, b) = (self.vertex(k), self.vertex(k + 1));
-        let s = ux.sqrt();
+        let s = math::sqrt(ux);
         let t = unit(u.y);
         a * (s * (1.0 - t)) + b * (s * t)
     }
     fn contains(&self, p: Vec2) -> bool {
         // Distance to the nearest edge along its normal: inside when within the apothem.
-        let angle = p.y.atan2(p.x) - self.rotation;
+        let angle = math::atan2(p.y, p.x) - self.rotation;
         let mut folded = angle % self.sector;
         if folded < 0.0 {
             folded += self.sector;
         }
         let local = folded - self.sector / 2.0;
-        let apothem = (self.sector / 2.0).cos();
-        p.length() * local.cos() <= apothem + EDGE_TOLERANCE
+        let apothem = math::cos(self.sector / 2.0);
+        p.length() * math::cos(local) <= apothem + EDGE_TOLERANCE
     }
     fn pdf(&self, p: Vec2) -> f32 {
         if self.contains(p) {
@@ -163,7 +162,7 @@ impl ApertureShape for RegularPolygon {
         }
     }
     fn area(&self) -> f32 {
-        0.5 * self.blades as f32 * self.sector.sin()
+        0.5 * self.blades as f32 * math::sin(self.sector)
     }
 }
 
@@ -238,10 +237,10 @@ impl ApertureShape for Heart {
         // Outward normal of the upper-left edge is (-1,1)/√2, of the upper-right (1,1)/√2.
         let normal = Vec2::new(side, 1.0) * core::f32::consts::FRAC_1_SQRT_2;
         let theta = (v - 0.5) * PI;
-        let r = self.lobe_radius() * uy.sqrt();
+        let r = self.lobe_radius() * math::sqrt(uy);
         let dir = Vec2::new(
-            normal.x * theta.cos() - normal.y * theta.sin(),
-            normal.x * theta.sin() + normal.y * theta.cos(),
+            normal.x * math::cos(theta) - normal.y * math::sin(theta),
+            normal.x * math::sin(theta) + normal.y * math::cos(theta),
         );
         self.lobe_centre(side) + dir * r
     }

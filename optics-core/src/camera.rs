@@ -10,13 +10,12 @@
 //! sample), a static camera no interpolation, chromatic strength 0 no channel choice.
 
 use glam::{Quat, Vec2, Vec3};
-use num_traits::Float;
 
 use crate::aperture::{Aperture, Disk};
 use crate::chromatic::ChromaticAberration;
 use crate::lens::sensor_distance_for_focus;
 use crate::real::{non_negative, positive, positive_or_infinite};
-use crate::{OpticsError, Real, Result};
+use crate::{math, OpticsError, Real, Result};
 
 /// A ray in world space at a time within the shutter interval.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -336,7 +335,7 @@ impl<'a> ThinLensCamera<'a> {
     /// Horizontal and vertical field of view (radians) at the current focus.
     pub fn field_of_view(&self) -> Vec2 {
         let half = self.sensor_mm / (2.0 * self.image_distance_mm);
-        Vec2::new(2.0 * half.x.atan(), 2.0 * half.y.atan())
+        Vec2::new(2.0 * math::atan(half.x), 2.0 * math::atan(half.y))
     }
 
     /// Film point (mm from the sensor centre, `+y` up) of raster position `(px, py)` on a

@@ -75,7 +75,11 @@ fn assert_uniform<S: ApertureShape>(shape: &S, seed: u64, n: usize) -> Result<()
                 cells += 1;
             } else if expected == 0.0 {
                 // A sliver of shape the lattice missed may hold a few samples, no more.
-                prop_assert!(observed[cy][cx] as usize <= n / 2000, "{} samples in an empty cell", observed[cy][cx]);
+                prop_assert!(
+                    observed[cy][cx] as usize <= n / 2000,
+                    "{} samples in an empty cell",
+                    observed[cy][cx]
+                );
             }
         }
     }

@@ -14,11 +14,11 @@ fn finite_or_err(r: Result<f64>) -> bool {
 }
 
 fn image_ok(r: Result<ImageDistance<f64>>) -> bool {
-    r.map_or(true, |d| d.signed().map_or(true, f64::is_finite))
+    r.map_or(true, |d| d.signed().is_none_or(f64::is_finite))
 }
 
 fn distance_ok(d: Distance<f64>) -> bool {
-    d.finite().map_or(true, f64::is_finite)
+    d.finite().is_none_or(f64::is_finite)
 }
 
 fn any_value() -> impl Strategy<Value = f64> {
@@ -64,12 +64,12 @@ proptest! {
         prop_assert!(finite_or_err(circle_of_confusion(a, b, c, d)));
         prop_assert!(depth_of_field_approx(a, b, c, d).map_or(true, distance_ok));
         prop_assert!(finite_or_err(depth_of_field_approx_error(a, b, c, d)));
-        prop_assert!(snell_angle(a, b, c).map_or(true, |t| t.map_or(true, f64::is_finite)));
+        prop_assert!(snell_angle(a, b, c).map_or(true, |t| t.is_none_or(f64::is_finite)));
         prop_assert!(finite_or_err(paraxial_angle(a, b, c)));
-        prop_assert!(refract([a, b, c], [d, a, b], c).map_or(true, |t| t.map_or(true, |v| v.iter().all(|x| x.is_finite()))));
+        prop_assert!(refract([a, b, c], [d, a, b], c).map_or(true, |t| t.is_none_or(|v| v.iter().all(|x| x.is_finite()))));
         prop_assert!(image_ok(paraxial_surface_image(a, b, c, d)));
         if let Ok(e) = paraxial_error(a, b, c, d, a / 2.0) {
-            prop_assert!(e.longitudinal.map_or(true, f64::is_finite));
+            prop_assert!(e.longitudinal.is_none_or(f64::is_finite));
         }
     }
 }
