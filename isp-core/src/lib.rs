@@ -1,1 +1,48 @@
+//! # isp-core
+//!
+//! The raw-to-sRGB pipeline a camera runs, for firmware: `#![no_std]`, no heap, no panics on any
+//! input. Every size and parameter is checked and answered with an [`IspError`].
+//!
+//! Built so far: the Bayer [`CfaPattern`] type and the exact sRGB transfer functions
+//! ([`srgb`]). The stages (black level, defective pixels, lens shading, gain, white balance,
+//! demosaic, distortion correction, denoise, colour correction, tone, encoding) and the streaming
+//! pipeline follow in their own issues; ARCHITECTURE.md has the plan.
+//!
+//! ```
+//! use isp_core::{srgb, CfaPattern, CfaColour};
+//! let rggb: CfaPattern = "RGGB".parse().unwrap();
+//! assert_eq!(rggb.colour_at(1, 1), CfaColour::Blue);
+//! assert_eq!((srgb::encode(0.5) * 255.0).round(), 188.0);
+//! ```
 #![no_std]
+#![deny(unsafe_code)]
+#![warn(missing_docs)]
+
+mod cfa;
+pub mod srgb;
+
+pub use cfa::{CfaColour, CfaPattern};
+
+use core::fmt;
+
+/// Everything isp-core can refuse, each with what went wrong and what would be accepted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum IspError {
+    /// A parameter is outside its allowed range.
+    InvalidParameter {
+        /// The parameter's name.
+        name: &'static str,
+        /// The allowed range, in words.
+        allowed: &'static str,
+    },
+}
+
+impl fmt::Display for IspError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::InvalidParameter { name, allowed } => {
+                write!(f, "invalid {name}: must be {allowed}")
+            }
+        }
+    }
+}

@@ -46,4 +46,6 @@ mod real;
 pub mod refraction;
 
 pub use error::{OpticsError, Result};
+/// The vector library of the geometry API, re-exported so callers use the same version.
+pub use glam;
 pub use real::{Distance, Real};

@@ -1,0 +1,31 @@
+//! The fuzz targets' bodies on random bytes (the deep runs are `cargo +nightly fuzz run`).
+
+use camsim_tests::fuzz_bodies::*;
+use proptest::prelude::*;
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(4000))]
+
+    #[test]
+    fn scalar(data in proptest::collection::vec(any::<u8>(), 0..48)) { optics_scalar(&data); }
+
+    #[test]
+    fn fixed(data in proptest::collection::vec(any::<u8>(), 0..40)) { optics_fixed(&data); }
+
+    #[test]
+    fn bitmap(data in proptest::collection::vec(any::<u8>(), 0..1700)) { bitmap_aperture(&data); }
+
+    #[test]
+    fn distortion(data in proptest::collection::vec(any::<u8>(), 0..64)) { distortion_inverse(&data); }
+}
+
+/// Realistic values, which random bytes rarely produce: the bodies must accept them.
+#[test]
+fn bodies_accept_realistic_values() {
+    let bytes = |xs: &[f64]| xs.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+    optics_scalar(&bytes(&[50.0, 2.8, 0.03, 3000.0, 2000.0]));
+    distortion_inverse(&bytes(&[-0.2, 0.05, 0.0, 0.001, -0.001, 0.4, -0.3]));
+    let mut mask = vec![8, 8, 100, 200, 255];
+    mask.extend([255u8; 64]);
+    bitmap_aperture(&mask);
+}
