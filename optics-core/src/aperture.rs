@@ -278,6 +278,9 @@ pub struct BitmapMask<'a> {
 impl<'a> BitmapMask<'a> {
     /// Largest number of cells: keeps the cumulative sum within `u32`.
     pub const MAX_CELLS: usize = (u32::MAX / 255) as usize;
+    /// Largest width or height: a cell stays thousands of `f32` steps wide, so a point placed
+    /// in a cell is found in it again.
+    pub const MAX_SIDE: usize = 8192;
 
     /// Builds the sampling table for `mask` (`width * height` bytes, row-major) in `cdf_buffer`,
     /// which needs `width * height` elements ([`BitmapMask::cdf_len`]).
@@ -287,10 +290,10 @@ impl<'a> BitmapMask<'a> {
         height: usize,
         cdf_buffer: &'a mut [u32],
     ) -> Result<Self> {
-        if width == 0 || height == 0 {
+        if width == 0 || height == 0 || width > Self::MAX_SIDE || height > Self::MAX_SIDE {
             return Err(OpticsError::InvalidParameter {
                 name: "width/height",
-                allowed: ">= 1",
+                allowed: "1..=8192",
             });
         }
         let cells = Self::cdf_len(width, height)?;
@@ -365,15 +368,18 @@ impl ApertureShape for BitmapMask<'_> {
         let row = (cell / self.width) as f32;
         let x = -1.0 + 2.0 * (col + fx) / self.width as f32;
         let y = 1.0 - 2.0 * (row + fy) / self.height as f32;
-        // Rounding can land exactly on the far edge of the cell; keep the point inside it.
-        let cell_w = 2.0 / self.width as f32;
-        let cell_h = 2.0 / self.height as f32;
-        let x_max = -1.0 + cell_w * (col + 1.0);
-        let y_min = 1.0 - cell_h * (row + 1.0);
-        Vec2::new(
-            if x >= x_max { x_max - cell_w * 1e-4 } else { x },
-            if y <= y_min { y_min + cell_h * 1e-4 } else { y },
-        )
+        let p = Vec2::new(x, y);
+        // On a cell's edge, rounding can put the point in the neighbour (which may be closed):
+        // sampling and lookup must agree, so such a point moves to its cell's centre. This
+        // touches a set of measure zero and cannot bias the distribution.
+        if self.cell_at(p) == Some(cell) {
+            p
+        } else {
+            Vec2::new(
+                -1.0 + 2.0 * (col + 0.5) / self.width as f32,
+                1.0 - 2.0 * (row + 0.5) / self.height as f32,
+            )
+        }
     }
     fn contains(&self, p: Vec2) -> bool {
         self.cell_at(p).is_some_and(|i| self.mask[i] > 0)

@@ -116,6 +116,10 @@ impl<T: Real> BrownConrady<T> {
     /// Distorts an ideal (undistorted) normalised point.
     pub fn distort(&self, p: [T; 2]) -> Result<[T; 2]> {
         let (x, y) = (finite(p[0], "x")?, finite(p[1], "y")?);
+        if self.is_identity() {
+            // Exact, and consistent with `undistort`, even where r^2 would overflow.
+            return Ok(p);
+        }
         let d = self.eval(x, y);
         Ok([checked(d[0])?, checked(d[1])?])
     }
@@ -132,7 +136,14 @@ impl<T: Real> BrownConrady<T> {
             let d = self.eval(u[0], u[1]);
             [d[0] - xd, d[1] - yd]
         };
-        let norm = |r: [T; 2]| r[0].abs().max(r[1].abs());
+        // max() ignores NaN: a residual that overflowed must count as infinitely far.
+        let norm = |r: [T; 2]| {
+            if r[0].is_finite() && r[1].is_finite() {
+                r[0].abs().max(r[1].abs())
+            } else {
+                T::infinity()
+            }
+        };
         // A root is accepted only on the branch that contains the image centre.
         let accept = |u: [T; 2]| {
             let j = self.jacobian(u[0], u[1]);

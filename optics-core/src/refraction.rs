@@ -5,8 +5,8 @@
 //! Sign convention of the single-surface equation (as in Hecht): light travels left to right;
 //! the object distance `z` is positive for a real object left of the vertex, the image distance
 //! `z'` positive for a real image right of it, the radius `r` positive when the centre of
-//! curvature lies right of the vertex. Then `n/z + n'/z' = (n' - n)/r`, which is the issue's
-//! `n/z + n/r = n'/r - n'/z'` with `z'` measured the other way round.
+//! curvature lies right of the vertex. Then `n/z + n'/z' = (n' - n)/r`, the same equation as
+//! `n/z + n/r = n'/r - n'/z'` rearranged.
 //!
 //! Total internal reflection is `Ok(None)`, never NaN; invalid inputs are an error.
 

@@ -209,6 +209,7 @@ fn bitmap_errors_and_pdf() {
         Err(OpticsError::BufferTooSmall { .. })
     ));
     assert!(BitmapMask::new(&[1], 0, 1, &mut cdf).is_err());
+    assert!(BitmapMask::new(&[1; 8193], 8193, 1, &mut [0u32; 8193]).is_err());
     assert!(BitmapMask::cdf_len(usize::MAX, 2).is_err());
     // Fully open 2x2 mask: pdf = 1/4 over [-1,1]^2, area 4.
     let mut cdf = [0u32; 4];

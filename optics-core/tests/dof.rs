@@ -40,6 +40,17 @@ fn exposure_and_stops() {
 }
 
 proptest! {
+    /// Stops add along a chain of f-numbers, and each stop halves the exposure.
+    #[test]
+    fn stops_add_and_halve_exposure(a in 0.7f64..64.0, b in 0.7f64..64.0, c in 0.7f64..64.0) {
+        let ab = stops_between(a, b).unwrap();
+        let bc = stops_between(b, c).unwrap();
+        prop_assert!((ab + bc - stops_between(a, c).unwrap()).abs() < 1e-12);
+        prop_assert!((exposure_ratio(a, b).unwrap() - 2f64.powf(-ab)).abs() < 1e-12 * exposure_ratio(a, b).unwrap().max(1.0));
+        let pupil = entrance_pupil_diameter(50.0, a).unwrap();
+        prop_assert!((f_number(50.0, pupil).unwrap() - a).abs() < 1e-12 * a);
+    }
+
     /// Points at the near and far limits blur to exactly c; points between blur less.
     #[test]
     fn limits_are_where_blur_equals_c(f in 5.0f64..300.0, n in 1.0f64..22.0, c in 0.005f64..0.05, k in 2.0f64..1e4) {

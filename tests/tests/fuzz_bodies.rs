@@ -29,3 +29,29 @@ fn bodies_accept_realistic_values() {
     mask.extend([255u8; 64]);
     bitmap_aperture(&mask);
 }
+
+/// Every input a fuzzer once crashed on, replayed through its target's body. Files in
+/// `tests/fuzz-regressions/` are named `TARGET-what.bin`.
+#[test]
+fn fuzz_regressions_stay_fixed() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz-regressions");
+    let mut replayed = 0;
+    for entry in std::fs::read_dir(&dir).expect("tests/fuzz-regressions exists") {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().to_string();
+        let data = std::fs::read(&path).unwrap();
+        let body: fn(&[u8]) = match name.split('-').next().unwrap() {
+            "optics_scalar" => optics_scalar,
+            "optics_fixed" => optics_fixed,
+            "bitmap_aperture" => bitmap_aperture,
+            "distortion_inverse" => distortion_inverse,
+            other => panic!("{name}: no fuzz target named {other}"),
+        };
+        body(&data);
+        replayed += 1;
+    }
+    assert!(
+        replayed >= 2,
+        "expected the saved regressions, found {replayed}"
+    );
+}
