@@ -6,6 +6,18 @@ use std::process::{Command, Output};
 use proptest::prelude::*;
 use serde_json::Value;
 
+/// A valid `camsim dof` argument list (50 mm, f/2.8, c = 0.03 mm, focused at 3 m).
+const GOOD_ARGS: [&str; 8] = [
+    "--focal-length-mm",
+    "50",
+    "--f-number",
+    "2.8",
+    "--coc-mm",
+    "0.03",
+    "--focus-mm",
+    "3000",
+];
+
 fn camsim(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_camsim"))
         .args(args)
@@ -82,17 +94,9 @@ fn focus_at_infinity_and_at_hyperfocal() {
 
 #[test]
 fn table_without_json() {
-    let out = camsim(&[
-        "dof",
-        "--focal-length-mm",
-        "50",
-        "--f-number",
-        "2.8",
-        "--coc-mm",
-        "0.03",
-        "--focus-mm",
-        "3000",
-    ]);
+    let mut args = vec!["dof"];
+    args.extend(GOOD_ARGS);
+    let out = camsim(&args);
     assert!(out.status.success());
     let text = String::from_utf8(out.stdout).unwrap();
     for label in [
@@ -110,16 +114,7 @@ fn table_without_json() {
 
 #[test]
 fn bad_values_give_one_line_naming_the_argument_and_range() {
-    let good = [
-        "--focal-length-mm",
-        "50",
-        "--f-number",
-        "2.8",
-        "--coc-mm",
-        "0.03",
-        "--focus-mm",
-        "3000",
-    ];
+    let good = GOOD_ARGS;
     let cases = [
         (1, "-50", "--focal-length-mm", "> 0"),
         (1, "0", "--focal-length-mm", "> 0"),

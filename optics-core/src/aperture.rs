@@ -19,12 +19,21 @@ use crate::{math, OpticsError, Result};
 
 /// A shape an aperture can take. Points are in units of the aperture radius.
 pub trait ApertureShape {
-    /// Maps `u` in `[0, 1)^2` to a point distributed uniformly over the shape's area.
+    /// Maps `u` in `[0, 1)^2` to a point distributed with density [`ApertureShape::pdf`]:
+    /// uniform over the open area (a soft mask weights by transmission).
     fn sample(&self, u: Vec2) -> Vec2;
     /// Whether `p` is inside the open part of the aperture.
     fn contains(&self, p: Vec2) -> bool;
-    /// Density of [`ApertureShape::sample`] at `p`, with respect to area (0 outside).
-    fn pdf(&self, p: Vec2) -> f32;
+    /// Density of [`ApertureShape::sample`] at `p`, with respect to area (0 outside). The
+    /// default is the uniform density `1 / area` of the analytic shapes.
+    fn pdf(&self, p: Vec2) -> f32 {
+        if self.contains(p) {
+            1.0 / self.area()
+        } else {
+            0.0
+        }
+    }
+
     /// Open area, in units of radius squared.
     fn area(&self) -> f32;
 }
@@ -74,13 +83,6 @@ impl ApertureShape for Disk {
     }
     fn contains(&self, p: Vec2) -> bool {
         p.length_squared() <= 1.0 + EDGE_TOLERANCE
-    }
-    fn pdf(&self, p: Vec2) -> f32 {
-        if self.contains(p) {
-            1.0 / PI
-        } else {
-            0.0
-        }
     }
     fn area(&self) -> f32 {
         PI
@@ -153,13 +155,6 @@ impl ApertureShape for RegularPolygon {
         let local = folded - self.sector / 2.0;
         let apothem = math::cos(self.sector / 2.0);
         p.length() * math::cos(local) <= apothem + EDGE_TOLERANCE
-    }
-    fn pdf(&self, p: Vec2) -> f32 {
-        if self.contains(p) {
-            1.0 / self.area()
-        } else {
-            0.0
-        }
     }
     fn area(&self) -> f32 {
         0.5 * self.blades as f32 * math::sin(self.sector)
@@ -251,13 +246,6 @@ impl ApertureShape for Heart {
         q.x.abs() + q.y.abs() <= self.d * (1.0 + EDGE_TOLERANCE)
             || (p - self.lobe_centre(-1.0)).length_squared() <= r2
             || (p - self.lobe_centre(1.0)).length_squared() <= r2
-    }
-    fn pdf(&self, p: Vec2) -> f32 {
-        if self.contains(p) {
-            1.0 / self.area()
-        } else {
-            0.0
-        }
     }
     fn area(&self) -> f32 {
         self.square_area() + 2.0 * self.half_disk_area()
