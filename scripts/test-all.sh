@@ -1,10 +1,32 @@
 #!/usr/bin/env bash
-# The whole test suite, as CI runs it (.ci/run calls this script): formatting, lints, the no_std
-# proof, docs, and every test. Needs only the Rust toolchain; sets up anything else itself.
+# The whole test suite, as CI runs it (.ci/run calls this script): the oracle's Python
+# environment, formatting, lints, the no_std proof, docs, and every test (including the
+# differential tests against OpenCV and colour-science). Needs only the Rust toolchain and
+# Python 3; sets up everything else itself.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 step() { printf '\n==> %s\n' "$*"; }
+
+# The differential-test oracle: OpenCV, colour-science and colour-demosaicing at pinned versions
+# from PyPI, in .venv. Made once; made again only when the requirements change.
+step "oracle environment (.venv from tests/oracle/requirements.txt)"
+requirements=tests/oracle/requirements.txt
+stamp=.venv/camsim-requirements.txt
+if [ -x .venv/bin/python ] && cmp -s "$requirements" "$stamp"; then
+  echo "reusing .venv ($(.venv/bin/python --version))"
+else
+  command -v python3 >/dev/null || { echo "error: python3 not found; the oracle tests need Python 3 (3.10 or newer)" >&2; exit 1; }
+  python3 -m venv --clear .venv || {
+    echo "error: 'python3 -m venv' failed; install Python's venv module (Debian/Ubuntu: apt-get install python3-venv)" >&2
+    exit 1
+  }
+  .venv/bin/python -m pip install --disable-pip-version-check --quiet -r "$requirements"
+  cp "$requirements" "$stamp"
+  echo "created .venv: $(.venv/bin/python -m pip freeze --disable-pip-version-check | tr '\n' ' ')"
+fi
+export CAMSIM_ORACLE_PYTHON="$PWD/.venv/bin/python"
+export CAMSIM_REQUIRE_ORACLE=1
 
 step "formatting (cargo fmt --check)"
 cargo fmt --all -- --check

@@ -3,8 +3,8 @@
 //! The raw-to-sRGB pipeline a camera runs, for firmware: `#![no_std]`, no heap, no panics on any
 //! input. Every size and parameter is checked and answered with an [`IspError`].
 //!
-//! Built so far: the Bayer [`CfaPattern`] type and the exact sRGB transfer functions
-//! ([`srgb`]). The stages (black level, defective pixels, lens shading, gain, white balance,
+//! Built so far: the Bayer [`CfaPattern`] type, the exact sRGB transfer functions ([`srgb`]) and
+//! the colorimetry the colour stages need ([`colour`]). The stages (black level, defective pixels, lens shading, gain, white balance,
 //! demosaic, distortion correction, denoise, colour correction, tone, encoding) and the streaming
 //! pipeline follow in their own issues; ARCHITECTURE.md has the plan.
 //!
@@ -19,6 +19,8 @@
 #![warn(missing_docs)]
 
 mod cfa;
+pub mod colour;
+mod math;
 pub mod srgb;
 
 pub use cfa::{CfaColour, CfaPattern};

@@ -4,6 +4,8 @@
 //! `1.055 x^(1/2.4) - 0.055`. Decoding (EOTF) inverts it with the threshold `0.04045`.
 //! Inputs outside `[0, 1]` are clamped; NaN maps to 0, so the output is always in `[0, 1]`.
 
+use crate::math;
+
 /// Linear value above which the power segment applies.
 pub const LINEAR_THRESHOLD: f32 = 0.003_130_8;
 /// Encoded value above which the power segment applies.
@@ -23,7 +25,7 @@ pub fn encode(linear: f32) -> f32 {
     if x <= LINEAR_THRESHOLD {
         12.92 * x
     } else {
-        clamp01(1.055 * libm::powf(x, 1.0 / 2.4) - 0.055)
+        clamp01(1.055 * math::powf(x, 1.0 / 2.4) - 0.055)
     }
 }
 
@@ -33,6 +35,6 @@ pub fn decode(encoded: f32) -> f32 {
     if v <= ENCODED_THRESHOLD {
         v / 12.92
     } else {
-        clamp01(libm::powf((v + 0.055) / 1.055, 2.4))
+        clamp01(math::powf((v + 0.055) / 1.055, 2.4))
     }
 }

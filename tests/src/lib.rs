@@ -1,7 +1,30 @@
 //! Shared pieces of the cross-crate tests.
 //!
+//! [`oracle`] runs the differential-test oracle (OpenCV, colour-science, colour-demosaicing in a
+//! long-lived Python process).
+//!
 //! [`fuzz_bodies`] holds the body of every fuzz target, so the same code runs under libFuzzer
 //! (`fuzz/`, nightly, `cargo fuzz run TARGET`) and, on random bytes, in the ordinary test suite
 //! (`tests/tests/fuzz_bodies.rs`), which keeps the targets compiling and exercised in CI.
 
 pub mod fuzz_bodies;
+pub mod oracle;
+
+/// Index of the first element of `ours` that differs from `theirs` by more than
+/// `rel * |theirs| + abs`, with both values; `None` when all agree (and the lengths match).
+pub fn first_mismatch(
+    ours: &[f64],
+    theirs: &[f64],
+    rel: f64,
+    abs: f64,
+) -> Option<(usize, f64, f64)> {
+    if ours.len() != theirs.len() {
+        return Some((ours.len().min(theirs.len()), f64::NAN, f64::NAN));
+    }
+    // NaN on either side compares false, so it counts as a mismatch.
+    let within = |a: f64, b: f64| (a - b).abs() <= rel * b.abs() + abs;
+    ours.iter()
+        .zip(theirs)
+        .position(|(a, b)| !within(*a, *b))
+        .map(|i| (i, ours[i], theirs[i]))
+}

@@ -1,0 +1,185 @@
+"""Long-lived oracle process for camsim's differential tests.
+
+The Rust tests (tests/src/oracle.rs) start this once per test binary and send requests over
+stdin; replies come back on stdout. Framing, both ways:
+
+    u32 little-endian length of a JSON header, the header, then the raw little-endian bytes of
+    each array the header lists as {"dtype": "f64"|"f32"|"u16"|"u8", "shape": [...]}.
+
+Request header: {"op": NAME, "args": {...}, "arrays": [...]}.
+Reply header:   {"ok": true, "values": {...}, "arrays": [...]} or {"ok": false, "error": TEXT}.
+
+Each op calls one reference implementation (OpenCV, colour-science, colour-demosaicing) and
+nothing else, so a disagreement points at camsim, not at glue code here.
+"""
+
+import json
+import struct
+import sys
+import traceback
+import warnings
+
+import numpy as np
+
+DTYPES = {"f64": "<f8", "f32": "<f4", "u16": "<u2", "u8": "u1"}
+NAMES = {np.dtype(v).str: k for k, v in DTYPES.items()}
+
+
+def read_exact(stream, n):
+    data = bytearray()
+    while len(data) < n:
+        chunk = stream.read(n - len(data))
+        if not chunk:
+            raise EOFError
+        data.extend(chunk)
+    return bytes(data)
+
+
+def read_message(stream):
+    (length,) = struct.unpack("<I", read_exact(stream, 4))
+    header = json.loads(read_exact(stream, length))
+    arrays = []
+    for spec in header.get("arrays", []):
+        dtype = np.dtype(DTYPES[spec["dtype"]])
+        shape = tuple(spec["shape"])
+        count = int(np.prod(shape, dtype=np.int64)) if shape else 1
+        raw = read_exact(stream, count * dtype.itemsize)
+        arrays.append(np.frombuffer(raw, dtype=dtype).reshape(shape))
+    return header, arrays
+
+
+def write_message(stream, header, arrays=()):
+    specs, blobs = [], []
+    for a in arrays:
+        a = np.ascontiguousarray(a)
+        if a.dtype.str not in NAMES:
+            a = a.astype("<f8")
+        specs.append({"dtype": NAMES[a.dtype.str], "shape": list(a.shape)})
+        blobs.append(a.tobytes())
+    header = dict(header, arrays=specs)
+    body = json.dumps(header).encode()
+    stream.write(struct.pack("<I", len(body)) + body)
+    for b in blobs:
+        stream.write(b)
+    stream.flush()
+
+
+def op_ping(args, arrays):
+    import colour
+    import colour_demosaicing
+    import cv2
+
+    versions = {
+        "python": sys.version.split()[0],
+        "numpy": np.__version__,
+        "opencv": cv2.__version__,
+        "colour-science": colour.__version__,
+        "colour-demosaicing": colour_demosaicing.__version__,
+    }
+    return {"versions": versions}, []
+
+
+def op_srgb_encode(args, arrays):
+    import colour
+
+    return {}, [colour.models.eotf_inverse_sRGB(arrays[0])]
+
+
+def op_srgb_decode(args, arrays):
+    import colour
+
+    return {}, [colour.models.eotf_sRGB(arrays[0])]
+
+
+def op_srgb_matrices(args, arrays):
+    import colour
+
+    space = colour.RGB_COLOURSPACES["sRGB"]
+    return {}, [space.matrix_XYZ_to_RGB, space.matrix_RGB_to_XYZ]
+
+
+def op_bradford(args, arrays):
+    """arrays: XYZ (N,3), source white XYZ (3,), target white XYZ (3,)."""
+    import colour
+
+    xyz, src, dst = arrays
+    out = colour.chromatic_adaptation(xyz, src, dst, method="Von Kries", transform="Bradford")
+    return {}, [out]
+
+
+def op_xy_to_cct_mccamy(args, arrays):
+    import colour
+
+    return {}, [colour.temperature.xy_to_CCT(arrays[0], "McCamy 1992")]
+
+
+def op_cct_to_xy_daylight(args, arrays):
+    import colour
+
+    return {}, [colour.temperature.CCT_to_xy_CIE_D(arrays[0])]
+
+
+def op_xyz_to_lab(args, arrays):
+    """arrays: XYZ (N,3), reference white chromaticity xy (2,)."""
+    import colour
+
+    xyz, white_xy = arrays
+    return {}, [colour.XYZ_to_Lab(xyz, white_xy)]
+
+
+def op_delta_e_2000(args, arrays):
+    import colour
+
+    return {}, [colour.delta_E(arrays[0], arrays[1], method="CIE 2000")]
+
+
+def _camera(args):
+    return np.eye(3)
+
+
+def op_project_points(args, arrays):
+    """arrays: ideal normalised points (N,2), distortion [k1,k2,p1,p2,k3] (5,)."""
+    import cv2
+
+    pts, dist = arrays
+    obj = np.concatenate([pts, np.ones((len(pts), 1))], axis=1).reshape(-1, 1, 3)
+    out, _ = cv2.projectPoints(obj, np.zeros(3), np.zeros(3), _camera(args), dist)
+    return {}, [out.reshape(-1, 2)]
+
+
+def op_undistort_points(args, arrays):
+    """arrays: distorted normalised points (N,2), distortion (5,). Iterated to convergence."""
+    import cv2
+
+    pts, dist = arrays
+    criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, int(args.get("iterations", 1000)), 1e-15)
+    out = cv2.undistortPoints(pts.reshape(-1, 1, 2), _camera(args), dist, None, None, np.eye(3), criteria)
+    return {}, [out.reshape(-1, 2)]
+
+
+OPS = {name[3:]: fn for name, fn in globals().items() if name.startswith("op_")}
+
+
+def main():
+    stdin = sys.stdin.buffer
+    stdout = sys.stdout.buffer
+    # Anything a library prints must not corrupt the reply stream.
+    sys.stdout = sys.stderr
+    warnings.simplefilter("ignore")
+    while True:
+        try:
+            header, arrays = read_message(stdin)
+        except EOFError:
+            return
+        op = header.get("op")
+        try:
+            if op not in OPS:
+                raise ValueError(f"unknown op {op!r}; known: {sorted(OPS)}")
+            values, out = OPS[op](header.get("args", {}), arrays)
+            write_message(stdout, {"ok": True, "values": values}, out)
+        except Exception as e:  # reported to the Rust side, which fails the test with it
+            write_message(stdout, {"ok": False, "error": f"{op}: {e}\n{traceback.format_exc()}"})
+
+
+if __name__ == "__main__":
+    main()
