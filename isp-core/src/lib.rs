@@ -3,8 +3,10 @@
 //! The raw-to-sRGB pipeline a camera runs, for firmware: `#![no_std]`, no heap, no panics on any
 //! input. Every size and parameter is checked and answered with an [`IspError`].
 //!
-//! Built so far: the Bayer [`CfaPattern`] type, the exact sRGB transfer functions ([`srgb`]) and
-//! the colorimetry the colour stages need ([`colour`]). The stages (black level, defective pixels, lens shading, gain, white balance,
+//! Built so far: the Bayer [`CfaPattern`] type, checked views over caller memory ([`frame`]:
+//! mosaics, raw frames with their levels, RGB outputs), bilinear demosaicing with OpenCV-exact
+//! and reflect-101 borders ([`demosaic`]), the exact sRGB transfer functions ([`srgb`]) and the
+//! colorimetry the colour stages need ([`colour`]). The stages (black level, defective pixels, lens shading, gain, white balance,
 //! demosaic, distortion correction, denoise, colour correction, tone, encoding) and the streaming
 //! pipeline follow in their own issues; ARCHITECTURE.md has the plan.
 //!
@@ -20,6 +22,8 @@
 
 mod cfa;
 pub mod colour;
+pub mod demosaic;
+pub mod frame;
 mod math;
 pub mod srgb;
 
@@ -37,6 +41,13 @@ pub enum IspError {
         /// The allowed range, in words.
         allowed: &'static str,
     },
+    /// A caller-provided buffer is too small.
+    BufferTooSmall {
+        /// Elements needed.
+        needed: usize,
+        /// Elements provided.
+        provided: usize,
+    },
 }
 
 impl fmt::Display for IspError {
@@ -44,6 +55,12 @@ impl fmt::Display for IspError {
         match self {
             Self::InvalidParameter { name, allowed } => {
                 write!(f, "invalid {name}: must be {allowed}")
+            }
+            Self::BufferTooSmall { needed, provided } => {
+                write!(
+                    f,
+                    "buffer too small: {needed} elements needed, {provided} provided"
+                )
             }
         }
     }

@@ -157,6 +157,23 @@ def op_undistort_points(args, arrays):
     return {}, [out.reshape(-1, 2)]
 
 
+# OpenCV names Bayer codes by the second row of the 2x2 block (DESIGN.md): RGGB is BayerBG.
+BAYER_TO_RGB = {
+    "RGGB": "COLOR_BayerBG2RGB",
+    "BGGR": "COLOR_BayerRG2RGB",
+    "GRBG": "COLOR_BayerGB2RGB",
+    "GBRG": "COLOR_BayerGR2RGB",
+}
+
+
+def op_bayer_bilinear(args, arrays):
+    """args: pattern (camsim's name, top-left block). arrays: mosaic (H,W) u8 or u16."""
+    import cv2
+
+    code = getattr(cv2, BAYER_TO_RGB[args["pattern"]])
+    return {"code": BAYER_TO_RGB[args["pattern"]]}, [cv2.cvtColor(np.ascontiguousarray(arrays[0]), code)]
+
+
 OPS = {name[3:]: fn for name, fn in globals().items() if name.startswith("op_")}
 
 

@@ -1,0 +1,199 @@
+//! Demosaicing: from one CFA sample per pixel to RGB.
+//!
+//! **Bilinear** fills each missing colour with the rounded mean of the same-colour pixels in the
+//! 3x3 neighbourhood: G at R/B sites `(N + S + W + E + 2) >> 2`, the opposite chroma
+//! `(NW + NE + SW + SE + 2) >> 2`, and at G sites `(W + E + 1) >> 1` and `(N + S + 1) >> 1`.
+//! Integer arithmetic throughout; outputs cannot exceed the inputs, so nothing saturates.
+//!
+//! Border modes ([`Border`]):
+//! - [`Border::Reflect101`] (default): neighbours outside the frame mirror about the edge pixel
+//!   without repeating it (`-1 -> 1`, `w -> w - 2`), which keeps the CFA parity, so every pixel
+//!   keeps its own sample. A frame 1 pixel wide or high has no mirror: there each missing colour
+//!   is the rounded mean of its in-frame neighbours of that colour, or the pixel's own sample
+//!   where the line holds none (a BGGR column has no red at all).
+//! - [`Border::OpenCv`]: exactly `cv::cvtColor(..., COLOR_Bayer*2RGB)`: the interior as above,
+//!   then column 0 copied from column 1 and the last column from the one before, then row 0 from
+//!   row 1 and the last row from the one before (so border pixels lose their own sample). Like
+//!   OpenCV, a frame narrower or shorter than 3 pixels comes out all zero.
+
+use crate::frame::{MosaicView, RgbViewMut, Sample};
+use crate::{CfaColour, CfaPattern, IspError};
+
+/// How demosaicing treats pixels whose neighbourhood crosses the frame edge.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Border {
+    /// Mirror without repeating the edge; keeps CFA parity.
+    #[default]
+    Reflect101,
+    /// OpenCV's rule, for bit-exact comparison with `cvtColor`.
+    OpenCv,
+}
+
+fn channel(c: CfaColour) -> usize {
+    match c {
+        CfaColour::Red => 0,
+        CfaColour::Green => 1,
+        CfaColour::Blue => 2,
+    }
+}
+
+/// Bilinear demosaic of `input` into `output` (same size).
+///
+/// ```
+/// use isp_core::demosaic::{bilinear, Border};
+/// use isp_core::frame::{MosaicView, RgbViewMut};
+/// use isp_core::CfaPattern;
+/// let flat = [100u16; 16];
+/// let mosaic = MosaicView::new(&flat, 4, 4, 4, CfaPattern::Rggb).unwrap();
+/// let mut rgb = [0u16; 48];
+/// let mut out = RgbViewMut::new(&mut rgb, 4, 4, 12).unwrap();
+/// bilinear(&mosaic, Border::Reflect101, &mut out).unwrap();
+/// assert!(rgb.iter().all(|v| *v == 100)); // a flat field stays flat
+/// ```
+pub fn bilinear<T: Sample>(
+    input: &MosaicView<'_, T>,
+    border: Border,
+    output: &mut RgbViewMut<'_, T>,
+) -> Result<(), IspError> {
+    let (w, h) = (input.width(), input.height());
+    if output.width() != w || output.height() != h {
+        return Err(IspError::InvalidParameter {
+            name: "output",
+            allowed: "the same size as the input",
+        });
+    }
+    let pattern = input.pattern();
+    match border {
+        Border::Reflect101 if w == 1 || h == 1 => {
+            // A line: the 3x3 rule's reflected neighbours would fold onto the pixel itself.
+            for y in 0..h {
+                for x in 0..w {
+                    let rgb = line_pixel(input, x, y);
+                    output.row_mut(y)[3 * x..3 * x + 3].copy_from_slice(&rgb);
+                }
+            }
+        }
+        Border::Reflect101 => {
+            for y in 0..h {
+                let (up, down) = (reflect(y as isize - 1, h), reflect(y as isize + 1, h));
+                let rows = [input.row(up), input.row(y), input.row(down)];
+                bilinear_row(
+                    rows,
+                    y,
+                    pattern,
+                    |x| (reflect(x as isize - 1, w), reflect(x as isize + 1, w)),
+                    output.row_mut(y),
+                    0..w,
+                );
+            }
+        }
+        Border::OpenCv => {
+            if w < 3 || h < 3 {
+                for y in 0..h {
+                    output.row_mut(y).fill(T::default());
+                }
+                return Ok(());
+            }
+            for y in 1..h - 1 {
+                let rows = [input.row(y - 1), input.row(y), input.row(y + 1)];
+                let out = output.row_mut(y);
+                bilinear_row(rows, y, pattern, |x| (x - 1, x + 1), out, 1..w - 1);
+                out.copy_within(3..6, 0);
+                out.copy_within(3 * (w - 2)..3 * (w - 1), 3 * (w - 1));
+            }
+            output.copy_row(1, 0);
+            output.copy_row(h - 2, h - 1);
+        }
+    }
+    Ok(())
+}
+
+/// One pixel of a 1-pixel-wide or -high frame: each missing colour is the rounded mean of the
+/// distinct in-frame neighbours of that colour, or the pixel's own sample if there is none.
+fn line_pixel<T: Sample>(input: &MosaicView<'_, T>, x: usize, y: usize) -> [T; 3] {
+    let pattern = input.pattern();
+    let own = pattern.colour_at(x, y);
+    let mut sum = [0u32; 3];
+    let mut count = [0u32; 3];
+    for (dx, dy) in [
+        (-1isize, 0isize),
+        (1, 0),
+        (0, -1),
+        (0, 1),
+        (-1, -1),
+        (1, -1),
+        (-1, 1),
+        (1, 1),
+    ] {
+        let (nx, ny) = (x as isize + dx, y as isize + dy);
+        if nx < 0 || ny < 0 {
+            continue;
+        }
+        if let Some(v) = input.get(nx as usize, ny as usize) {
+            let c = channel(pattern.colour_at(nx as usize, ny as usize));
+            sum[c] += v.to_u32();
+            count[c] += 1;
+        }
+    }
+    let own_value = input.get(x, y).unwrap_or_default();
+    let mut rgb = [own_value; 3];
+    for c in 0..3 {
+        if c != channel(own) && count[c] > 0 {
+            rgb[c] = T::from_u32((sum[c] + count[c] / 2) / count[c]);
+        }
+    }
+    rgb
+}
+
+/// Index `i` (at most one step outside `0..n`) reflected without repeating the edge.
+#[inline]
+fn reflect(i: isize, n: usize) -> usize {
+    if n == 1 {
+        0
+    } else if i < 0 {
+        (-i) as usize
+    } else if i as usize >= n {
+        2 * n - 2 - i as usize
+    } else {
+        i as usize
+    }
+}
+
+/// Demosaics the pixels `xs` of row `y` from its three source rows (above, itself, below);
+/// `horizontal(x)` gives the columns of the left and right neighbours.
+fn bilinear_row<T: Sample>(
+    rows: [&[T]; 3],
+    y: usize,
+    pattern: CfaPattern,
+    horizontal: impl Fn(usize) -> (usize, usize),
+    out: &mut [T],
+    xs: core::ops::Range<usize>,
+) {
+    let [up, mid, down] = rows;
+    let v = |row: &[T], x: usize| row[x].to_u32();
+    for x in xs {
+        let (l, r) = horizontal(x);
+        let own = pattern.colour_at(x, y);
+        let mut rgb = [0u32; 3];
+        rgb[channel(own)] = v(mid, x);
+        match own {
+            CfaColour::Green => {
+                // The horizontal neighbours carry one chroma, the vertical ones the other.
+                let horizontal_colour = pattern.colour_at(x + 1, y);
+                let vertical_colour = pattern.colour_at(x, y + 1);
+                rgb[channel(horizontal_colour)] = (v(mid, l) + v(mid, r) + 1) >> 1;
+                rgb[channel(vertical_colour)] = (v(up, x) + v(down, x) + 1) >> 1;
+            }
+            chroma => {
+                let g = v(up, x) + v(down, x) + v(mid, l) + v(mid, r);
+                let opposite = v(up, l) + v(up, r) + v(down, l) + v(down, r);
+                rgb[1] = (g + 2) >> 2;
+                let other = if chroma == CfaColour::Red { 2 } else { 0 };
+                rgb[other] = (opposite + 2) >> 2;
+            }
+        }
+        out[3 * x] = T::from_u32(rgb[0]);
+        out[3 * x + 1] = T::from_u32(rgb[1]);
+        out[3 * x + 2] = T::from_u32(rgb[2]);
+    }
+}

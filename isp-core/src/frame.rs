@@ -1,0 +1,281 @@
+//! Checked views over caller memory: Bayer mosaics, raw frames with their levels, and RGB
+//! outputs. Constructors reject every inconsistent size or value; after that, processing
+//! cannot index out of bounds.
+
+use crate::{CfaPattern, IspError};
+
+/// A pixel sample type the integer paths work on: `u8` or `u16`.
+pub trait Sample: Copy + Default + PartialEq + core::fmt::Debug + 'static {
+    /// Largest value.
+    const MAX: u32;
+    /// Widened to `u32`.
+    fn to_u32(self) -> u32;
+    /// From a `u32`, saturating at [`Sample::MAX`].
+    fn from_u32(x: u32) -> Self;
+}
+
+impl Sample for u8 {
+    const MAX: u32 = u8::MAX as u32;
+    #[inline]
+    fn to_u32(self) -> u32 {
+        self as u32
+    }
+    #[inline]
+    fn from_u32(x: u32) -> Self {
+        x.min(<Self as Sample>::MAX) as u8
+    }
+}
+
+impl Sample for u16 {
+    const MAX: u32 = u16::MAX as u32;
+    #[inline]
+    fn to_u32(self) -> u32 {
+        self as u32
+    }
+    #[inline]
+    fn from_u32(x: u32) -> Self {
+        x.min(<Self as Sample>::MAX) as u16
+    }
+}
+
+/// Elements a plane of `rows` rows of `row_len` elements at `stride` needs, or an error.
+fn required_len(
+    row_len: usize,
+    rows: usize,
+    stride: usize,
+    name: &'static str,
+) -> Result<usize, IspError> {
+    if row_len == 0 || rows == 0 {
+        return Err(IspError::InvalidParameter {
+            name,
+            allowed: "width and height >= 1",
+        });
+    }
+    if stride < row_len {
+        return Err(IspError::InvalidParameter {
+            name,
+            allowed: "stride >= the row length",
+        });
+    }
+    (rows - 1)
+        .checked_mul(stride)
+        .and_then(|n| n.checked_add(row_len))
+        .ok_or(IspError::InvalidParameter {
+            name,
+            allowed: "a size that fits in memory",
+        })
+}
+
+/// A Bayer mosaic: one sample per pixel, `stride` samples from one row to the next.
+#[derive(Debug, Clone, Copy)]
+pub struct MosaicView<'a, T> {
+    data: &'a [T],
+    width: usize,
+    height: usize,
+    stride: usize,
+    pattern: CfaPattern,
+}
+
+impl<'a, T: Sample> MosaicView<'a, T> {
+    /// A checked view; `data` must hold `(height - 1) * stride + width` samples.
+    pub fn new(
+        data: &'a [T],
+        width: usize,
+        height: usize,
+        stride: usize,
+        pattern: CfaPattern,
+    ) -> Result<Self, IspError> {
+        let needed = required_len(width, height, stride, "mosaic")?;
+        if data.len() < needed {
+            return Err(IspError::BufferTooSmall {
+                needed,
+                provided: data.len(),
+            });
+        }
+        Ok(Self {
+            data,
+            width,
+            height,
+            stride,
+            pattern,
+        })
+    }
+
+    /// Width in pixels.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Samples from one row to the next.
+    pub fn stride(&self) -> usize {
+        self.stride
+    }
+
+    /// The CFA pattern.
+    pub fn pattern(&self) -> CfaPattern {
+        self.pattern
+    }
+
+    /// Row `y` (exactly `width` samples); `y` must be < height.
+    #[inline]
+    pub(crate) fn row(&self, y: usize) -> &'a [T] {
+        &self.data[y * self.stride..y * self.stride + self.width]
+    }
+
+    /// The sample at `(x, y)`, or `None` outside the frame.
+    pub fn get(&self, x: usize, y: usize) -> Option<T> {
+        (x < self.width && y < self.height).then(|| self.data[y * self.stride + x])
+    }
+}
+
+/// A raw sensor frame: a `u16` mosaic holding `bit_depth`-bit samples, with the black level of
+/// each position of the 2x2 CFA block (row by row) and the white level.
+#[derive(Debug, Clone, Copy)]
+pub struct RawFrame<'a> {
+    mosaic: MosaicView<'a, u16>,
+    bit_depth: u8,
+    black_level: [u16; 4],
+    white_level: u16,
+}
+
+impl<'a> RawFrame<'a> {
+    /// A checked raw frame: bit depth 8..=16, white level within the bit depth, and every black
+    /// level below the white level.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        data: &'a [u16],
+        width: usize,
+        height: usize,
+        stride: usize,
+        bit_depth: u8,
+        pattern: CfaPattern,
+        black_level: [u16; 4],
+        white_level: u16,
+    ) -> Result<Self, IspError> {
+        if !(8..=16).contains(&bit_depth) {
+            return Err(IspError::InvalidParameter {
+                name: "bit_depth",
+                allowed: "8..=16",
+            });
+        }
+        let max = ((1u32 << bit_depth) - 1) as u16;
+        if white_level == 0 || white_level > max {
+            return Err(IspError::InvalidParameter {
+                name: "white_level",
+                allowed: "1..=2^bit_depth - 1",
+            });
+        }
+        if black_level.iter().any(|b| *b >= white_level) {
+            return Err(IspError::InvalidParameter {
+                name: "black_level",
+                allowed: "< white_level",
+            });
+        }
+        let mosaic = MosaicView::new(data, width, height, stride, pattern)?;
+        Ok(Self {
+            mosaic,
+            bit_depth,
+            black_level,
+            white_level,
+        })
+    }
+
+    /// The mosaic.
+    pub fn mosaic(&self) -> &MosaicView<'a, u16> {
+        &self.mosaic
+    }
+
+    /// Bits per sample.
+    pub fn bit_depth(&self) -> u8 {
+        self.bit_depth
+    }
+
+    /// Black level of each 2x2 block position, row by row.
+    pub fn black_level(&self) -> [u16; 4] {
+        self.black_level
+    }
+
+    /// Black level at pixel `(x, y)`.
+    pub fn black_at(&self, x: usize, y: usize) -> u16 {
+        self.black_level[(y & 1) * 2 + (x & 1)]
+    }
+
+    /// White level.
+    pub fn white_level(&self) -> u16 {
+        self.white_level
+    }
+}
+
+/// An interleaved RGB output: three samples per pixel, `stride` samples from one row to the
+/// next (at least `3 * width`).
+#[derive(Debug)]
+pub struct RgbViewMut<'a, T> {
+    data: &'a mut [T],
+    width: usize,
+    height: usize,
+    stride: usize,
+}
+
+impl<'a, T: Copy> RgbViewMut<'a, T> {
+    /// A checked view; `data` must hold `(height - 1) * stride + 3 * width` samples.
+    pub fn new(
+        data: &'a mut [T],
+        width: usize,
+        height: usize,
+        stride: usize,
+    ) -> Result<Self, IspError> {
+        let row_len = width.checked_mul(3).ok_or(IspError::InvalidParameter {
+            name: "rgb",
+            allowed: "a size that fits in memory",
+        })?;
+        let needed = required_len(row_len, height, stride, "rgb")?;
+        if data.len() < needed {
+            return Err(IspError::BufferTooSmall {
+                needed,
+                provided: data.len(),
+            });
+        }
+        Ok(Self {
+            data,
+            width,
+            height,
+            stride,
+        })
+    }
+
+    /// Width in pixels.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Row `y` (exactly `3 * width` samples).
+    #[inline]
+    pub(crate) fn row_mut(&mut self, y: usize) -> &mut [T] {
+        &mut self.data[y * self.stride..y * self.stride + 3 * self.width]
+    }
+
+    /// Copies row `from` over row `to`.
+    pub(crate) fn copy_row(&mut self, from: usize, to: usize) {
+        let n = 3 * self.width;
+        self.data
+            .copy_within(from * self.stride..from * self.stride + n, to * self.stride);
+    }
+
+    /// Pixel `(x, y)` as `[r, g, b]`, or `None` outside.
+    pub fn get(&self, x: usize, y: usize) -> Option<[T; 3]> {
+        (x < self.width && y < self.height).then(|| {
+            let i = y * self.stride + 3 * x;
+            [self.data[i], self.data[i + 1], self.data[i + 2]]
+        })
+    }
+}
