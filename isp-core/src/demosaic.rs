@@ -5,6 +5,14 @@
 //! `(NW + NE + SW + SE + 2) >> 2`, and at G sites `(W + E + 1) >> 1` and `(N + S + 1) >> 1`.
 //! Integer arithmetic throughout; outputs cannot exceed the inputs, so nothing saturates.
 //!
+//! **Malvar-He-Cutler** ([`mhc`], Malvar, He and Cutler, ICASSP 2004) adds a gradient correction
+//! from the pixel's own channel through fixed 5x5 filters (the paper's coefficients, in
+//! sixteenths so they are integers): G at R/B sites, R/B at G sites (one filter for the chroma
+//! lying horizontally, its transpose for the one lying vertically), and B at R / R at B. The sum
+//! is rounded half up (`(s + 8) >> 4`) and clamped to the sample range: the filters overshoot at
+//! edges, and integer outputs saturate rather than wrap. Borders mirror (reflect-101, two pixels
+//! deep); frames under 3 pixels wide or high fall back to bilinear.
+//!
 //! Border modes ([`Border`]):
 //! - [`Border::Reflect101`] (default): neighbours outside the frame mirror about the edge pixel
 //!   without repeating it (`-1 -> 1`, `w -> w - 2`), which keeps the CFA parity, so every pixel
@@ -143,6 +151,125 @@ fn line_pixel<T: Sample>(input: &MosaicView<'_, T>, x: usize, y: usize) -> [T; 3
         }
     }
     rgb
+}
+
+/// One tap of a 5x5 filter: offset and weight (in sixteenths).
+type Tap = (i8, i8, i32);
+
+/// G at R or B sites.
+const MHC_G_AT_CHROMA: [Tap; 9] = [
+    (0, 0, 8),
+    (0, -1, 4),
+    (0, 1, 4),
+    (-1, 0, 4),
+    (1, 0, 4),
+    (0, -2, -2),
+    (0, 2, -2),
+    (-2, 0, -2),
+    (2, 0, -2),
+];
+/// At G sites, the chroma whose samples lie left and right.
+const MHC_CHROMA_HORIZONTAL: [Tap; 11] = [
+    (0, 0, 10),
+    (-1, 0, 8),
+    (1, 0, 8),
+    (-2, 0, -2),
+    (2, 0, -2),
+    (-1, -1, -2),
+    (1, -1, -2),
+    (-1, 1, -2),
+    (1, 1, -2),
+    (0, -2, 1),
+    (0, 2, 1),
+];
+/// At G sites, the chroma whose samples lie above and below (the transpose).
+const MHC_CHROMA_VERTICAL: [Tap; 11] = [
+    (0, 0, 10),
+    (0, -1, 8),
+    (0, 1, 8),
+    (0, -2, -2),
+    (0, 2, -2),
+    (-1, -1, -2),
+    (1, -1, -2),
+    (-1, 1, -2),
+    (1, 1, -2),
+    (-2, 0, 1),
+    (2, 0, 1),
+];
+/// B at R sites and R at B sites.
+const MHC_OPPOSITE: [Tap; 9] = [
+    (0, 0, 12),
+    (-1, -1, 4),
+    (1, -1, 4),
+    (-1, 1, 4),
+    (1, 1, 4),
+    (0, -2, -3),
+    (0, 2, -3),
+    (-2, 0, -3),
+    (2, 0, -3),
+];
+
+/// Malvar-He-Cutler demosaic of `input` into `output` (same size); see the module docs.
+pub fn mhc<T: Sample>(
+    input: &MosaicView<'_, T>,
+    output: &mut RgbViewMut<'_, T>,
+) -> Result<(), IspError> {
+    let (w, h) = (input.width(), input.height());
+    if output.width() != w || output.height() != h {
+        return Err(IspError::InvalidParameter {
+            name: "output",
+            allowed: "the same size as the input",
+        });
+    }
+    if w < 3 || h < 3 {
+        return bilinear(input, Border::Reflect101, output);
+    }
+    let pattern = input.pattern();
+    let max = T::MAX as i32;
+    for y in 0..h {
+        let rows: [&[T]; 5] =
+            core::array::from_fn(|i| input.row(reflect2(y as isize + i as isize - 2, h)));
+        let out = output.row_mut(y);
+        for x in 0..w {
+            let cols: [usize; 5] =
+                core::array::from_fn(|i| reflect2(x as isize + i as isize - 2, w));
+            let apply = |taps: &[Tap]| -> T {
+                let sum: i32 = taps
+                    .iter()
+                    .map(|&(dx, dy, k)| {
+                        k * rows[(2 + dy) as usize][cols[(2 + dx) as usize]].to_u32() as i32
+                    })
+                    .sum();
+                T::from_u32(((sum + 8) >> 4).clamp(0, max) as u32)
+            };
+            let own = pattern.colour_at(x, y);
+            let mut rgb = [rows[2][x]; 3];
+            match own {
+                CfaColour::Green => {
+                    rgb[channel(pattern.colour_at(x + 1, y))] = apply(&MHC_CHROMA_HORIZONTAL);
+                    rgb[channel(pattern.colour_at(x, y + 1))] = apply(&MHC_CHROMA_VERTICAL);
+                }
+                chroma => {
+                    rgb[1] = apply(&MHC_G_AT_CHROMA);
+                    rgb[if chroma == CfaColour::Red { 2 } else { 0 }] = apply(&MHC_OPPOSITE);
+                }
+            }
+            out[3 * x..3 * x + 3].copy_from_slice(&rgb);
+        }
+    }
+    Ok(())
+}
+
+/// Index `i` (at most two steps outside `0..n`, `n >= 3`) reflected without repeating the edge.
+#[inline]
+fn reflect2(i: isize, n: usize) -> usize {
+    if i < 0 {
+        (-i) as usize
+    } else if i as usize >= n {
+        2 * n - 2 - i as usize
+    } else {
+        i as usize
+    }
 }
 
 /// Index `i` (at most one step outside `0..n`) reflected without repeating the edge.

@@ -187,3 +187,102 @@ fn views_reject_inconsistent_sizes() {
     let mut small = RgbViewMut::new(&mut rgb, 3, 3, 9).unwrap();
     assert!(bilinear(&m, Border::Reflect101, &mut small).is_err());
 }
+
+/// The paper's 5x5 filters in eighths, as printed (symmetric, so correlation = convolution).
+const G_AT_RB: [[f64; 5]; 5] = [
+    [0., 0., -1., 0., 0.],
+    [0., 0., 2., 0., 0.],
+    [-1., 2., 4., 2., -1.],
+    [0., 0., 2., 0., 0.],
+    [0., 0., -1., 0., 0.],
+];
+const C_AT_G_ROW: [[f64; 5]; 5] = [
+    [0., 0., 0.5, 0., 0.],
+    [0., -1., 0., -1., 0.],
+    [-1., 4., 5., 4., -1.],
+    [0., -1., 0., -1., 0.],
+    [0., 0., 0.5, 0., 0.],
+];
+const C_AT_OPPOSITE: [[f64; 5]; 5] = [
+    [0., 0., -1.5, 0., 0.],
+    [0., 2., 0., 2., 0.],
+    [-1.5, 0., 6., 0., -1.5],
+    [0., 2., 0., 2., 0.],
+    [0., 0., -1.5, 0., 0.],
+];
+
+// Indexing both ways (plain and transposed) reads clearer than iterators here.
+#[allow(clippy::needless_range_loop)]
+fn reference_mhc(m: &[u32], w: usize, h: usize, p: CfaPattern, max: u32) -> Vec<[u32; 3]> {
+    if w < 3 || h < 3 {
+        return reference_reflect101(m, w, h, p);
+    }
+    let refl = |i: isize, n: usize| {
+        if i < 0 {
+            (-i) as usize
+        } else if i as usize >= n {
+            2 * n - 2 - i as usize
+        } else {
+            i as usize
+        }
+    };
+    let filter = |k: &[[f64; 5]; 5], x: usize, y: usize, transpose: bool| {
+        let mut s = 0.0;
+        for j in 0..5 {
+            for i in 0..5 {
+                let weight = if transpose { k[i][j] } else { k[j][i] };
+                let (sx, sy) = (
+                    refl(x as isize + i as isize - 2, w),
+                    refl(y as isize + j as isize - 2, h),
+                );
+                s += weight / 8.0 * m[sy * w + sx] as f64;
+            }
+        }
+        // Round half up, clamp to the sample range.
+        ((s + 0.5).floor()).clamp(0.0, max as f64) as u32
+    };
+    let mut out = Vec::new();
+    for y in 0..h {
+        for x in 0..w {
+            let own = p.colour_at(x, y);
+            let mut rgb = [m[y * w + x]; 3];
+            if own == CfaColour::Green {
+                rgb[channel(p.colour_at(x + 1, y))] = filter(&C_AT_G_ROW, x, y, false);
+                rgb[channel(p.colour_at(x, y + 1))] = filter(&C_AT_G_ROW, x, y, true);
+            } else {
+                rgb[1] = filter(&G_AT_RB, x, y, false);
+                rgb[2 - channel(own)] = filter(&C_AT_OPPOSITE, x, y, false);
+            }
+            out.push(rgb);
+        }
+    }
+    out
+}
+
+fn run_mhc<T: Sample>(m: &[u32], w: usize, h: usize, p: CfaPattern) -> Vec<[u32; 3]> {
+    let data: Vec<T> = m.iter().map(|v| T::from_u32(*v)).collect();
+    let mosaic = MosaicView::new(&data, w, h, w, p).unwrap();
+    let mut rgb = vec![T::default(); 3 * w * h];
+    let mut view = RgbViewMut::new(&mut rgb, w, h, 3 * w).unwrap();
+    isp_core::demosaic::mhc(&mosaic, &mut view).unwrap();
+    rgb.chunks(3)
+        .map(|c| [c[0].to_u32(), c[1].to_u32(), c[2].to_u32()])
+        .collect()
+}
+
+proptest! {
+    #[test]
+    fn mhc_matches_reference((w, h, m) in mosaic(65535), p in pattern()) {
+        prop_assert_eq!(run_mhc::<u16>(&m, w, h, p), reference_mhc(&m, w, h, p, 65535));
+    }
+
+    #[test]
+    fn mhc_matches_reference_u8((w, h, m) in mosaic(255), p in pattern()) {
+        prop_assert_eq!(run_mhc::<u8>(&m, w, h, p), reference_mhc(&m, w, h, p, 255));
+    }
+
+    #[test]
+    fn mhc_keeps_flat_fields_flat(w in 1usize..12, h in 1usize..12, v in 0u32..=65535, p in pattern()) {
+        prop_assert!(run_mhc::<u16>(&vec![v; w * h], w, h, p).iter().all(|px| *px == [v; 3]));
+    }
+}

@@ -174,6 +174,14 @@ def op_bayer_bilinear(args, arrays):
     return {"code": BAYER_TO_RGB[args["pattern"]]}, [cv2.cvtColor(np.ascontiguousarray(arrays[0]), code)]
 
 
+def op_malvar2004(args, arrays):
+    """args: pattern. arrays: mosaic (H,W), any dtype. Float RGB, unclipped, as the library gives."""
+    from colour_demosaicing import demosaicing_CFA_Bayer_Malvar2004
+
+    cfa = arrays[0].astype(np.float64)
+    return {}, [demosaicing_CFA_Bayer_Malvar2004(cfa, args["pattern"])]
+
+
 OPS = {name[3:]: fn for name, fn in globals().items() if name.startswith("op_")}
 
 

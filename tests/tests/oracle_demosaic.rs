@@ -59,3 +59,65 @@ proptest! {
         prop_assert_eq!(ours(&data, w, h, p), theirs);
     }
 }
+
+/// Property 3: Malvar-He-Cutler within 1 LSB of colour-demosaicing's
+/// `demosaicing_CFA_Bayer_Malvar2004` (rounded and clipped) on the interior: a 2-pixel crop,
+/// since that library's scipy 'reflect' border breaks the CFA parity.
+fn mhc_matches_colour_demosaicing<T: Sample>(
+    data: &[T],
+    w: usize,
+    h: usize,
+    p: CfaPattern,
+) -> Result<(), TestCaseError> {
+    let mosaic = MosaicView::new(data, w, h, w, p).unwrap();
+    let mut rgb = vec![T::default(); 3 * w * h];
+    isp_core::demosaic::mhc(
+        &mosaic,
+        &mut RgbViewMut::new(&mut rgb, w, h, 3 * w).unwrap(),
+    )
+    .unwrap();
+    let input = Array::f64_shaped(data.iter().map(|v| v.to_u32() as f64).collect(), &[h, w]);
+    let Some(theirs) = oracle_arrays(
+        "malvar2004",
+        serde_json::json!({ "pattern": p.name() }),
+        &[input],
+    ) else {
+        return Ok(());
+    };
+    let theirs = theirs[0].to_f64();
+    for y in 2..h - 2 {
+        for x in 2..w - 2 {
+            for c in 0..3 {
+                let i = 3 * (y * w + x) + c;
+                let expected = theirs[i].round().clamp(0.0, T::MAX as f64);
+                let got = rgb[i].to_u32() as f64;
+                prop_assert!(
+                    (got - expected).abs() <= 1.0,
+                    "({}, {}) channel {}: ours {} theirs {}",
+                    x,
+                    y,
+                    c,
+                    got,
+                    theirs[i]
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(150))]
+
+    #[test]
+    fn mhc_8bit_within_1_lsb((w, h, m) in (5usize..40, 5usize..40).prop_flat_map(|(w, h)| (Just(w), Just(h), proptest::collection::vec(prop_oneof![Just(0u32), Just(255), 0..=255u32], w * h))), p in pattern()) {
+        let data: Vec<u8> = m.iter().map(|v| *v as u8).collect();
+        mhc_matches_colour_demosaicing(&data, w, h, p)?;
+    }
+
+    #[test]
+    fn mhc_16bit_within_1_lsb((w, h, m) in (5usize..40, 5usize..40).prop_flat_map(|(w, h)| (Just(w), Just(h), proptest::collection::vec(prop_oneof![Just(0u32), Just(65535), 0..=65535u32], w * h))), p in pattern()) {
+        let data: Vec<u16> = m.iter().map(|v| *v as u16).collect();
+        mhc_matches_colour_demosaicing(&data, w, h, p)?;
+    }
+}
