@@ -153,6 +153,47 @@ fn line_pixel<T: Sample>(input: &MosaicView<'_, T>, x: usize, y: usize) -> [T; 3
     rgb
 }
 
+/// Nearest (superpixel) demosaic, the cheapest preview: each pixel takes R, B and the rounded
+/// mean of the two Gs from the 2x2 Bayer window whose top-left corner is the pixel's even-aligned
+/// block origin (moved back by one where the frame ends at an odd size). Any 2x2 window of a
+/// Bayer mosaic holds one R, one B and two Gs, so the colours come from `colour_at`. A frame 1
+/// pixel wide or high has no 2x2 window: it uses bilinear's line rule.
+pub fn nearest<T: Sample>(
+    input: &MosaicView<'_, T>,
+    output: &mut RgbViewMut<'_, T>,
+) -> Result<(), IspError> {
+    let (w, h) = (input.width(), input.height());
+    if output.width() != w || output.height() != h {
+        return Err(IspError::InvalidParameter {
+            name: "output",
+            allowed: "the same size as the input",
+        });
+    }
+    if w == 1 || h == 1 {
+        return bilinear(input, Border::Reflect101, output);
+    }
+    let pattern = input.pattern();
+    let origin = |i: usize, n: usize| (i & !1).min(n - 2);
+    for y in 0..h {
+        let by = origin(y, h);
+        let rows = [input.row(by), input.row(by + 1)];
+        let out = output.row_mut(y);
+        for x in 0..w {
+            let bx = origin(x, w);
+            let mut sum = [0u32; 3];
+            for (dy, row) in rows.iter().enumerate() {
+                for dx in 0..2 {
+                    sum[channel(pattern.colour_at(bx + dx, by + dy))] += row[bx + dx].to_u32();
+                }
+            }
+            out[3 * x] = T::from_u32(sum[0]);
+            out[3 * x + 1] = T::from_u32((sum[1] + 1) >> 1);
+            out[3 * x + 2] = T::from_u32(sum[2]);
+        }
+    }
+    Ok(())
+}
+
 /// One tap of a 5x5 filter: offset and weight (in sixteenths).
 type Tap = (i8, i8, i32);
 
