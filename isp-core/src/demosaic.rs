@@ -37,6 +37,21 @@ pub enum Border {
     OpenCv,
 }
 
+/// The input's width and height, if the output has the same.
+fn same_size<T: Sample>(
+    input: &MosaicView<'_, T>,
+    output: &RgbViewMut<'_, T>,
+) -> Result<(usize, usize), IspError> {
+    let (w, h) = (input.width(), input.height());
+    if output.width() != w || output.height() != h {
+        return Err(IspError::InvalidParameter {
+            name: "output",
+            allowed: "the same size as the input",
+        });
+    }
+    Ok((w, h))
+}
+
 fn channel(c: CfaColour) -> usize {
     match c {
         CfaColour::Red => 0,
@@ -63,13 +78,7 @@ pub fn bilinear<T: Sample>(
     border: Border,
     output: &mut RgbViewMut<'_, T>,
 ) -> Result<(), IspError> {
-    let (w, h) = (input.width(), input.height());
-    if output.width() != w || output.height() != h {
-        return Err(IspError::InvalidParameter {
-            name: "output",
-            allowed: "the same size as the input",
-        });
-    }
+    let (w, h) = same_size(input, output)?;
     let pattern = input.pattern();
     match border {
         Border::Reflect101 if w == 1 || h == 1 => {
@@ -162,13 +171,7 @@ pub fn nearest<T: Sample>(
     input: &MosaicView<'_, T>,
     output: &mut RgbViewMut<'_, T>,
 ) -> Result<(), IspError> {
-    let (w, h) = (input.width(), input.height());
-    if output.width() != w || output.height() != h {
-        return Err(IspError::InvalidParameter {
-            name: "output",
-            allowed: "the same size as the input",
-        });
-    }
+    let (w, h) = same_size(input, output)?;
     if w == 1 || h == 1 {
         return bilinear(input, Border::Reflect101, output);
     }
@@ -255,13 +258,7 @@ pub fn mhc<T: Sample>(
     input: &MosaicView<'_, T>,
     output: &mut RgbViewMut<'_, T>,
 ) -> Result<(), IspError> {
-    let (w, h) = (input.width(), input.height());
-    if output.width() != w || output.height() != h {
-        return Err(IspError::InvalidParameter {
-            name: "output",
-            allowed: "the same size as the input",
-        });
-    }
+    let (w, h) = same_size(input, output)?;
     if w < 3 || h < 3 {
         return bilinear(input, Border::Reflect101, output);
     }

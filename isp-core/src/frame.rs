@@ -38,6 +38,24 @@ impl Sample for u16 {
     }
 }
 
+/// Checks that `len` elements hold `rows` rows of `row_len` elements, `stride` apart.
+fn check_plane(
+    len: usize,
+    row_len: usize,
+    rows: usize,
+    stride: usize,
+    name: &'static str,
+) -> Result<(), IspError> {
+    let needed = required_len(row_len, rows, stride, name)?;
+    if len < needed {
+        return Err(IspError::BufferTooSmall {
+            needed,
+            provided: len,
+        });
+    }
+    Ok(())
+}
+
 /// Elements a plane of `rows` rows of `row_len` elements at `stride` needs, or an error.
 fn required_len(
     row_len: usize,
@@ -85,13 +103,7 @@ impl<'a, T: Sample> MosaicView<'a, T> {
         stride: usize,
         pattern: CfaPattern,
     ) -> Result<Self, IspError> {
-        let needed = required_len(width, height, stride, "mosaic")?;
-        if data.len() < needed {
-            return Err(IspError::BufferTooSmall {
-                needed,
-                provided: data.len(),
-            });
-        }
+        check_plane(data.len(), width, height, stride, "mosaic")?;
         Ok(Self {
             data,
             width,
@@ -233,13 +245,7 @@ impl<'a, T: Copy> RgbViewMut<'a, T> {
             name: "rgb",
             allowed: "a size that fits in memory",
         })?;
-        let needed = required_len(row_len, height, stride, "rgb")?;
-        if data.len() < needed {
-            return Err(IspError::BufferTooSmall {
-                needed,
-                provided: data.len(),
-            });
-        }
+        check_plane(data.len(), row_len, height, stride, "rgb")?;
         Ok(Self {
             data,
             width,
