@@ -1,9 +1,13 @@
 //! `camsim`: the camera simulator's command line.
 
+use std::io::IsTerminal;
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Args, Parser, Subcommand};
+use host_tracer::demosaic_cmd::{self, Method};
 use host_tracer::dof::{compute, DofInput};
+use isp_core::CfaPattern;
 
 #[derive(Parser)]
 #[command(
@@ -20,6 +24,19 @@ struct Cli {
 enum Command {
     /// Depth of field, hyperfocal distance, focus position and magnification of a thin lens.
     Dof(DofArgs),
+    /// Demosaic a single-channel 8- or 16-bit Bayer mosaic (PNG or PGM) into RGB of the same depth.
+    Demosaic(DemosaicArgs),
+    /// Measure accuracy against speed.
+    Bench {
+        #[command(subcommand)]
+        what: BenchCommand,
+    },
+}
+
+#[derive(Subcommand)]
+enum BenchCommand {
+    /// CPSNR on an image set and single-thread Mpix/s for every demosaicing method.
+    Demosaic(BenchDemosaicArgs),
 }
 
 #[derive(Args)]
@@ -41,6 +58,38 @@ struct DofArgs {
     json: bool,
 }
 
+#[derive(Args)]
+struct DemosaicArgs {
+    /// nearest, bilinear, bilinear-opencv (bit-exact to OpenCV's cvtColor) or mhc.
+    #[arg(long, default_value = "mhc")]
+    method: String,
+    /// CFA pattern by the top-left 2x2 block: RGGB, BGGR, GRBG or GBRG.
+    #[arg(long, default_value = "RGGB")]
+    pattern: String,
+    /// Input mosaic: .png or .pgm, single channel, 8 or 16 bit.
+    #[arg(long)]
+    input: PathBuf,
+    /// Output RGB image: .png or .ppm.
+    #[arg(long)]
+    output: PathBuf,
+}
+
+#[derive(Args)]
+struct BenchDemosaicArgs {
+    /// Folder of 8-bit RGB PNG images (data/kodak, data/mcmaster).
+    #[arg(long, default_value = "data/kodak")]
+    dataset: PathBuf,
+    /// Threads for the throughput measurement (only single-thread runs are measured so far).
+    #[arg(long, default_value_t = 1)]
+    threads: usize,
+    /// Sample depth: 8 or 16; both when not given.
+    #[arg(long)]
+    bits: Option<u8>,
+    /// Print a JSON list of {method, bits, cpsnr_db, mpix_per_s} instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
 fn dof(args: &DofArgs) -> Result<String, String> {
     let input = DofInput::parse(
         &args.focal_length_mm,
@@ -57,10 +106,73 @@ fn dof(args: &DofArgs) -> Result<String, String> {
     })
 }
 
+fn demosaic(args: &DemosaicArgs) -> Result<String, String> {
+    let method = Method::parse(&args.method)?;
+    let pattern: CfaPattern = args.pattern.parse().map_err(|_| {
+        format!(
+            "--pattern must be one of RGGB, BGGR, GRBG, GBRG (got {:?})",
+            args.pattern
+        )
+    })?;
+    demosaic_cmd::demosaic_file(&args.input, &args.output, method, pattern)
+}
+
+fn bench_demosaic(args: &BenchDemosaicArgs) -> Result<String, String> {
+    if args.threads != 1 {
+        return Err(format!(
+            "--threads must be 1: only single-thread throughput is measured so far (got {})",
+            args.threads
+        ));
+    }
+    let depths = match args.bits {
+        None => vec![8, 16],
+        Some(b @ (8 | 16)) => vec![b],
+        Some(b) => return Err(format!("--bits must be 8 or 16 (got {b})")),
+    };
+    let terminal = std::io::stderr().is_terminal();
+    let mut progress = |what: &str| {
+        if terminal {
+            eprint!("\r\x1b[Kbench: {what}");
+        } else {
+            eprintln!("bench: {what}");
+        }
+    };
+    let mut rows = Vec::new();
+    for bits in depths {
+        rows.extend(demosaic_cmd::bench(&args.dataset, bits, &mut progress)?);
+    }
+    if terminal {
+        eprintln!();
+    }
+    if args.json {
+        let list: Vec<_> = rows.iter().map(|r| r.to_json()).collect();
+        return Ok(serde_json::to_string_pretty(&list).map_err(|e| e.to_string())? + "\n");
+    }
+    let mut out = format!(
+        "{}\n{:<16} {:>4} {:>10} {:>10}\n",
+        args.dataset.display(),
+        "method",
+        "bits",
+        "CPSNR dB",
+        "Mpix/s"
+    );
+    for r in rows {
+        out.push_str(&format!(
+            "{:<16} {:>4} {:>10.2} {:>10.1}\n",
+            r.method, r.bits, r.cpsnr_db, r.mpix_per_s
+        ));
+    }
+    Ok(out)
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Dof(args) => dof(args),
+        Command::Demosaic(args) => demosaic(args),
+        Command::Bench {
+            what: BenchCommand::Demosaic(args),
+        } => bench_demosaic(args),
     };
     match result {
         Ok(out) => {

@@ -9,9 +9,11 @@
 //! from the pixel's own channel through fixed 5x5 filters (the paper's coefficients, in
 //! sixteenths so they are integers): G at R/B sites, R/B at G sites (one filter for the chroma
 //! lying horizontally, its transpose for the one lying vertically), and B at R / R at B. The sum
-//! is rounded half up (`(s + 8) >> 4`) and clamped to the sample range: the filters overshoot at
-//! edges, and integer outputs saturate rather than wrap. Borders mirror (reflect-101, two pixels
-//! deep); frames under 3 pixels wide or high fall back to bilinear.
+//! is rounded half up (`(s + 8) >> 4`) and clamped to the sample type's range (0..=255 for `u8`,
+//! 0..=65535 for `u16`): the filters overshoot at edges, and integer outputs saturate rather than
+//! wrap. Data of fewer bits in a `u16` (12-bit raw, say) can overshoot its own white level; the
+//! caller clamps to it. Borders mirror (reflect-101, two pixels deep); frames under 3 pixels wide
+//! or high fall back to bilinear.
 //!
 //! Border modes ([`Border`]):
 //! - [`Border::Reflect101`] (default): neighbours outside the frame mirror about the edge pixel
