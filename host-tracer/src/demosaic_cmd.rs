@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use isp_core::demosaic::{bilinear, mhc, nearest, Border};
 use isp_core::frame::{MosaicView, RgbViewMut, Sample};
-use isp_core::{CfaColour, CfaPattern};
+use isp_core::CfaPattern;
 use serde_json::{json, Value};
 
 use crate::imageio::{self, Image};
@@ -75,19 +75,11 @@ impl Method {
     }
 }
 
-fn channel(c: CfaColour) -> usize {
-    match c {
-        CfaColour::Red => 0,
-        CfaColour::Green => 1,
-        CfaColour::Blue => 2,
-    }
-}
-
 /// Samples an RGB image into a mosaic of pattern `p`, each sample multiplied by `scale`.
 pub fn mosaic_from_rgb(rgb: &Image, p: CfaPattern, scale: u16) -> Vec<u16> {
     (0..rgb.height)
         .flat_map(|y| (0..rgb.width).map(move |x| (x, y)))
-        .map(|(x, y)| rgb.data[3 * (y * rgb.width + x) + channel(p.colour_at(x, y))] * scale)
+        .map(|(x, y)| rgb.data[3 * (y * rgb.width + x) + p.colour_at(x, y).index()] * scale)
         .collect()
 }
 

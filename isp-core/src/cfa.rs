@@ -13,6 +13,17 @@ pub enum CfaColour {
     Blue,
 }
 
+impl CfaColour {
+    /// Channel index in RGB order: red 0, green 1, blue 2.
+    pub const fn index(self) -> usize {
+        match self {
+            Self::Red => 0,
+            Self::Green => 1,
+            Self::Blue => 2,
+        }
+    }
+}
+
 /// Bayer pattern, named by the colours of the top-left 2x2 block read row by row.
 ///
 /// OpenCV names its conversion codes by the second row instead: an RGGB sensor is

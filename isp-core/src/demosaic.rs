@@ -54,14 +54,6 @@ fn same_size<T: Sample>(
     Ok((w, h))
 }
 
-fn channel(c: CfaColour) -> usize {
-    match c {
-        CfaColour::Red => 0,
-        CfaColour::Green => 1,
-        CfaColour::Blue => 2,
-    }
-}
-
 /// Bilinear demosaic of `input` into `output` (same size).
 ///
 /// ```
@@ -149,7 +141,7 @@ fn line_pixel<T: Sample>(input: &MosaicView<'_, T>, x: usize, y: usize) -> [T; 3
             continue;
         }
         if let Some(v) = input.get(nx as usize, ny as usize) {
-            let c = channel(pattern.colour_at(nx as usize, ny as usize));
+            let c = pattern.colour_at(nx as usize, ny as usize).index();
             sum[c] += v.to_u32();
             count[c] += 1;
         }
@@ -157,7 +149,7 @@ fn line_pixel<T: Sample>(input: &MosaicView<'_, T>, x: usize, y: usize) -> [T; 3
     let own_value = input.get(x, y).unwrap_or_default();
     let mut rgb = [own_value; 3];
     for c in 0..3 {
-        if c != channel(own) && count[c] > 0 {
+        if c != own.index() && count[c] > 0 {
             rgb[c] = T::from_u32((sum[c] + count[c] / 2) / count[c]);
         }
     }
@@ -188,7 +180,7 @@ pub fn nearest<T: Sample>(
             let mut sum = [0u32; 3];
             for (dy, row) in rows.iter().enumerate() {
                 for dx in 0..2 {
-                    sum[channel(pattern.colour_at(bx + dx, by + dy))] += row[bx + dx].to_u32();
+                    sum[pattern.colour_at(bx + dx, by + dy).index()] += row[bx + dx].to_u32();
                 }
             }
             out[3 * x] = T::from_u32(sum[0]);
@@ -286,8 +278,8 @@ pub fn mhc<T: Sample>(
             let mut rgb = [rows[2][x]; 3];
             match own {
                 CfaColour::Green => {
-                    rgb[channel(pattern.colour_at(x + 1, y))] = apply(&MHC_CHROMA_HORIZONTAL);
-                    rgb[channel(pattern.colour_at(x, y + 1))] = apply(&MHC_CHROMA_VERTICAL);
+                    rgb[pattern.colour_at(x + 1, y).index()] = apply(&MHC_CHROMA_HORIZONTAL);
+                    rgb[pattern.colour_at(x, y + 1).index()] = apply(&MHC_CHROMA_VERTICAL);
                 }
                 chroma => {
                     rgb[1] = apply(&MHC_G_AT_CHROMA);
@@ -342,14 +334,14 @@ fn bilinear_row<T: Sample>(
         let (l, r) = horizontal(x);
         let own = pattern.colour_at(x, y);
         let mut rgb = [0u32; 3];
-        rgb[channel(own)] = v(mid, x);
+        rgb[own.index()] = v(mid, x);
         match own {
             CfaColour::Green => {
                 // The horizontal neighbours carry one chroma, the vertical ones the other.
                 let horizontal_colour = pattern.colour_at(x + 1, y);
                 let vertical_colour = pattern.colour_at(x, y + 1);
-                rgb[channel(horizontal_colour)] = (v(mid, l) + v(mid, r) + 1) >> 1;
-                rgb[channel(vertical_colour)] = (v(up, x) + v(down, x) + 1) >> 1;
+                rgb[horizontal_colour.index()] = (v(mid, l) + v(mid, r) + 1) >> 1;
+                rgb[vertical_colour.index()] = (v(up, x) + v(down, x) + 1) >> 1;
             }
             chroma => {
                 let g = v(up, x) + v(down, x) + v(mid, l) + v(mid, r);
