@@ -260,11 +260,11 @@ pub fn mhc<T: Sample>(
     let max = T::MAX as i32;
     for y in 0..h {
         let rows: [&[T]; 5] =
-            core::array::from_fn(|i| input.row(reflect2(y as isize + i as isize - 2, h)));
+            core::array::from_fn(|i| input.row(reflect(y as isize + i as isize - 2, h)));
         let out = output.row_mut(y);
         for x in 0..w {
             let cols: [usize; 5] =
-                core::array::from_fn(|i| reflect2(x as isize + i as isize - 2, w));
+                core::array::from_fn(|i| reflect(x as isize + i as isize - 2, w));
             let apply = |taps: &[Tap]| -> T {
                 let sum: i32 = taps
                     .iter()
@@ -292,19 +292,8 @@ pub fn mhc<T: Sample>(
     Ok(())
 }
 
-/// Index `i` (at most two steps outside `0..n`, `n >= 3`) reflected without repeating the edge.
-#[inline]
-fn reflect2(i: isize, n: usize) -> usize {
-    if i < 0 {
-        (-i) as usize
-    } else if i as usize >= n {
-        2 * n - 2 - i as usize
-    } else {
-        i as usize
-    }
-}
-
-/// Index `i` (at most one step outside `0..n`) reflected without repeating the edge.
+/// Index `i` reflected without repeating the edge: valid for `i` up to `n - 1` steps outside
+/// `0..n` (one step for bilinear, two for MHC, which needs `n >= 3`); a 1-long line maps to 0.
 #[inline]
 fn reflect(i: isize, n: usize) -> usize {
     if n == 1 {

@@ -234,6 +234,8 @@ impl CameraMotion {
 pub struct ThinLensCamera<'a> {
     focal_length_mm: f32,
     sensor_mm: Vec2,
+    /// `2 / |sensor diagonal|`: film mm to the normalised radius chromatic aberration uses.
+    film_to_normalised: f32,
     aperture_radius_mm: f32,
     focus_distance_mm: f32,
     image_distance_mm: f32,
@@ -254,6 +256,7 @@ impl<'a> ThinLensCamera<'a> {
         Ok(Self {
             focal_length_mm: f,
             sensor_mm: Vec2::new(w, h),
+            film_to_normalised: 2.0 / Vec2::new(w, h).length(),
             aperture_radius_mm: 0.0,
             focus_distance_mm: f32::INFINITY,
             image_distance_mm: f,
@@ -356,10 +359,9 @@ impl<'a> ThinLensCamera<'a> {
         let (origin, direction, throughput) = if self.aperture_radius_mm == 0.0 {
             (Vec3::ZERO, chief.normalize(), [1.0; 3])
         } else {
-            let half_diagonal = self.sensor_mm.length() / 2.0;
-            let s = self
-                .chromatic
-                .sample(&self.aperture, film_mm / half_diagonal, lens_u);
+            let s =
+                self.chromatic
+                    .sample(&self.aperture, film_mm * self.film_to_normalised, lens_u);
             let lens = (s.lens_point * self.aperture_radius_mm).extend(0.0);
             let direction = if self.focus_distance_mm.is_infinite() {
                 chief.normalize()

@@ -124,7 +124,12 @@ fn hyperfocal_minus_f(f: Wide, n: FNumber, c: Mm) -> Result<Option<Wide>> {
 /// Hyperfocal distance `H = f^2/(N c) + f` (mm); infinite when `c = 0`.
 pub fn hyperfocal(f: Mm, n: FNumber, c: Mm) -> Result<Distance<Mm>> {
     let f = nonzero(f, "focal_length")?;
-    match hyperfocal_minus_f(f, n, c)? {
+    hyperfocal_from(f, hyperfocal_minus_f(f, n, c)?)
+}
+
+/// `H = g + f` from `g = f^2/(N c)` (`None`: infinite).
+fn hyperfocal_from(f: Wide, g: Option<Wide>) -> Result<Distance<Mm>> {
+    match g {
         None => Ok(Distance::Infinite),
         Some(g) => Ok(Distance::Finite(to_mm(
             g.checked_add(f).ok_or(OpticsError::Overflow)?,
@@ -147,11 +152,12 @@ pub struct FixedDepthOfField {
 /// `1/near = V + (1 - f V)/(H - f)` and `1/far = V - (1 - f V)/(H - f)` (0 when that is <= 0,
 /// i.e. focused at or beyond the hyperfocal distance).
 pub fn depth_of_field(f: Mm, n: FNumber, c: Mm, focus: Dioptres) -> Result<FixedDepthOfField> {
-    let hyperfocal = hyperfocal(f, n, c)?;
     let f = nonzero(f, "focal_length")?;
+    let g = hyperfocal_minus_f(f, n, c)?;
+    let hyperfocal = hyperfocal_from(f, g)?;
     let margin = focus_margin(f, focus)?;
     let v = wide_d(focus);
-    let Some(g) = hyperfocal_minus_f(f, n, c)? else {
+    let Some(g) = g else {
         return Ok(FixedDepthOfField {
             near: focus,
             far: focus,
