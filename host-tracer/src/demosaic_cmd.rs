@@ -5,7 +5,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use isp_core::demosaic::{bilinear, mhc, nearest, Border};
-use isp_core::frame::{MosaicView, RgbViewMut, Sample};
+use isp_core::frame::{IntSample, MosaicView, RgbViewMut};
 use isp_core::CfaPattern;
 use serde_json::{json, Value};
 
@@ -55,7 +55,7 @@ impl Method {
     }
 
     /// Demosaics `data` (`w` x `h`, pattern `p`) into `out` (3 samples per pixel).
-    pub fn run<T: Sample>(
+    pub fn run<T: IntSample>(
         self,
         data: &[T],
         w: usize,
@@ -269,7 +269,7 @@ fn throughput(method: Method, image: &Image, bits: u8) -> Result<f64, String> {
     }
 }
 
-fn time_method<T: Sample>(method: Method, mosaic: &[T], n: usize) -> Result<f64, String> {
+fn time_method<T: IntSample>(method: Method, mosaic: &[T], n: usize) -> Result<f64, String> {
     let mut out = vec![T::default(); 3 * n * n];
     let mut best = f64::INFINITY;
     let started = Instant::now();

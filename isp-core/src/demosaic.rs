@@ -15,6 +15,15 @@
 //! caller clamps to it. Borders mirror (reflect-101, two pixels deep); frames under 3 pixels wide
 //! or high fall back to bilinear.
 //!
+//! **Nearest** ([`nearest`]) is the 2x2 superpixel preview.
+//!
+//! Every method works on `u8` and `u16` (integer arithmetic) and on `f32` in `[0, 1]` (the
+//! same filters, exact division, clamped to `[0, 1]`): see [`Sample`].
+//!
+//! **Streaming.** [`row`] demosaics one row from the five source rows around it (already
+//! reflected at the frame edges by [`reflect`]); the whole-frame functions are loops over it, so
+//! a pipeline holding five rows in a ring buffer gets bit-identical output.
+//!
 //! Border modes ([`Border`]):
 //! - [`Border::Reflect101`] (default): neighbours outside the frame mirror about the edge pixel
 //!   without repeating it (`-1 -> 1`, `w -> w - 2`), which keeps the CFA parity, so every pixel
@@ -39,6 +48,55 @@ pub enum Border {
     OpenCv,
 }
 
+/// A demosaicing method (reflect-101 borders), for [`demosaic`], [`row`] and the pipeline.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Method {
+    /// 2x2 superpixel replication, the cheapest preview.
+    Nearest,
+    /// Bilinear interpolation of same-colour neighbours.
+    #[default]
+    Bilinear,
+    /// Malvar-He-Cutler 2004 gradient-corrected 5x5 filters.
+    Mhc,
+}
+
+impl Method {
+    /// All methods, cheapest first.
+    pub const ALL: [Method; 3] = [Self::Nearest, Self::Bilinear, Self::Mhc];
+
+    /// The method's name as the command line spells it.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Nearest => "nearest",
+            Self::Bilinear => "bilinear",
+            Self::Mhc => "mhc",
+        }
+    }
+
+    /// Rows above and below the output row the method reads.
+    pub const fn radius(self) -> usize {
+        match self {
+            Self::Nearest | Self::Bilinear => 1,
+            Self::Mhc => 2,
+        }
+    }
+}
+
+impl core::str::FromStr for Method {
+    type Err = IspError;
+
+    /// Parses `nearest`, `bilinear` or `mhc` (any case).
+    fn from_str(s: &str) -> Result<Self, IspError> {
+        Self::ALL
+            .into_iter()
+            .find(|m| m.name().eq_ignore_ascii_case(s))
+            .ok_or(IspError::InvalidParameter {
+                name: "demosaic method",
+                allowed: "one of nearest, bilinear, mhc",
+            })
+    }
+}
+
 /// The input's width and height, if the output has the same.
 fn same_size<T: Sample>(
     input: &MosaicView<'_, T>,
@@ -52,6 +110,73 @@ fn same_size<T: Sample>(
         });
     }
     Ok((w, h))
+}
+
+/// Demosaics `input` into `output` (same size) with `method` and reflect-101 borders.
+pub fn demosaic<T: Sample>(
+    method: Method,
+    input: &MosaicView<'_, T>,
+    output: &mut RgbViewMut<'_, T>,
+) -> Result<(), IspError> {
+    let (w, h) = same_size(input, output)?;
+    let _ = w;
+    for y in 0..h {
+        let rows: [&[T]; 5] =
+            core::array::from_fn(|i| input.row(reflect(y as isize + i as isize - 2, h)));
+        row(method, rows, y, h, input.pattern(), output.row_mut(y))?;
+    }
+    Ok(())
+}
+
+/// Demosaics row `y` of a frame `h` rows high into `out` (`3 * width` samples, RGB).
+///
+/// `rows[i]` is source row `reflect(y + i - 2, h)` (all the same width, at least 1); bilinear
+/// and nearest read only `rows[1..4]`. Errors if the rows differ in width or `out` is not
+/// three times that width.
+pub fn row<T: Sample>(
+    method: Method,
+    rows: [&[T]; 5],
+    y: usize,
+    h: usize,
+    pattern: CfaPattern,
+    out: &mut [T],
+) -> Result<(), IspError> {
+    let w = rows[2].len();
+    if w == 0 || rows.iter().any(|r| r.len() != w) || y >= h {
+        return Err(IspError::InvalidParameter {
+            name: "rows",
+            allowed: "five rows of one width >= 1, and y < h",
+        });
+    }
+    if out.len() != 3 * w {
+        return Err(IspError::InvalidParameter {
+            name: "out",
+            allowed: "3 * width samples",
+        });
+    }
+    if w == 1 || h == 1 {
+        line_row(rows, y, h, pattern, out);
+        return Ok(());
+    }
+    match method {
+        Method::Nearest => nearest_row(rows, y, h, pattern, out),
+        Method::Mhc if w >= 3 && h >= 3 => mhc_row(rows, y, pattern, out),
+        Method::Bilinear | Method::Mhc => bilinear_row(
+            [rows[1], rows[2], rows[3]],
+            y,
+            pattern,
+            |x| {
+                if x > 0 && x + 1 < w {
+                    (x - 1, x + 1)
+                } else {
+                    (reflect(x as isize - 1, w), reflect(x as isize + 1, w))
+                }
+            },
+            out,
+            0..w,
+        ),
+    }
+    Ok(())
 }
 
 /// Bilinear demosaic of `input` into `output` (same size).
@@ -75,29 +200,7 @@ pub fn bilinear<T: Sample>(
     let (w, h) = same_size(input, output)?;
     let pattern = input.pattern();
     match border {
-        Border::Reflect101 if w == 1 || h == 1 => {
-            // A line: the 3x3 rule's reflected neighbours would fold onto the pixel itself.
-            for y in 0..h {
-                for x in 0..w {
-                    let rgb = line_pixel(input, x, y);
-                    output.row_mut(y)[3 * x..3 * x + 3].copy_from_slice(&rgb);
-                }
-            }
-        }
-        Border::Reflect101 => {
-            for y in 0..h {
-                let (up, down) = (reflect(y as isize - 1, h), reflect(y as isize + 1, h));
-                let rows = [input.row(up), input.row(y), input.row(down)];
-                bilinear_row(
-                    rows,
-                    y,
-                    pattern,
-                    |x| (reflect(x as isize - 1, w), reflect(x as isize + 1, w)),
-                    output.row_mut(y),
-                    0..w,
-                );
-            }
-        }
+        Border::Reflect101 => demosaic(Method::Bilinear, input, output)?,
         Border::OpenCv => {
             if w < 3 || h < 3 {
                 for y in 0..h {
@@ -119,43 +222,6 @@ pub fn bilinear<T: Sample>(
     Ok(())
 }
 
-/// One pixel of a 1-pixel-wide or -high frame: each missing colour is the rounded mean of the
-/// distinct in-frame neighbours of that colour, or the pixel's own sample if there is none.
-fn line_pixel<T: Sample>(input: &MosaicView<'_, T>, x: usize, y: usize) -> [T; 3] {
-    let pattern = input.pattern();
-    let own = pattern.colour_at(x, y);
-    let mut sum = [0u32; 3];
-    let mut count = [0u32; 3];
-    for (dx, dy) in [
-        (-1isize, 0isize),
-        (1, 0),
-        (0, -1),
-        (0, 1),
-        (-1, -1),
-        (1, -1),
-        (-1, 1),
-        (1, 1),
-    ] {
-        let (nx, ny) = (x as isize + dx, y as isize + dy);
-        if nx < 0 || ny < 0 {
-            continue;
-        }
-        if let Some(v) = input.get(nx as usize, ny as usize) {
-            let c = pattern.colour_at(nx as usize, ny as usize).index();
-            sum[c] += v.to_u32();
-            count[c] += 1;
-        }
-    }
-    let own_value = input.get(x, y).unwrap_or_default();
-    let mut rgb = [own_value; 3];
-    for c in 0..3 {
-        if c != own.index() && count[c] > 0 {
-            rgb[c] = T::from_u32((sum[c] + count[c] / 2) / count[c]);
-        }
-    }
-    rgb
-}
-
 /// Nearest (superpixel) demosaic, the cheapest preview: each pixel takes R, B and the rounded
 /// mean of the two Gs from the 2x2 Bayer window whose top-left corner is the pixel's even-aligned
 /// block origin (moved back by one where the frame ends at an odd size). Any 2x2 window of a
@@ -165,30 +231,97 @@ pub fn nearest<T: Sample>(
     input: &MosaicView<'_, T>,
     output: &mut RgbViewMut<'_, T>,
 ) -> Result<(), IspError> {
-    let (w, h) = same_size(input, output)?;
-    if w == 1 || h == 1 {
-        return bilinear(input, Border::Reflect101, output);
+    demosaic(Method::Nearest, input, output)
+}
+
+/// Malvar-He-Cutler demosaic of `input` into `output` (same size); see the module docs.
+pub fn mhc<T: Sample>(
+    input: &MosaicView<'_, T>,
+    output: &mut RgbViewMut<'_, T>,
+) -> Result<(), IspError> {
+    demosaic(Method::Mhc, input, output)
+}
+
+/// Index `i` mirrored into `0..n` without repeating the edge (`-1 -> 1`, `n -> n - 2`), folded
+/// as often as needed; a 1-long line maps everything to 0, and `n = 0` gives 0.
+#[inline]
+pub fn reflect(i: isize, n: usize) -> usize {
+    if i >= 0 && (i as usize) < n {
+        return i as usize;
     }
-    let pattern = input.pattern();
-    let origin = |i: usize, n: usize| (i & !1).min(n - 2);
-    for y in 0..h {
-        let by = origin(y, h);
-        let rows = [input.row(by), input.row(by + 1)];
-        let out = output.row_mut(y);
-        for x in 0..w {
-            let bx = origin(x, w);
-            let mut sum = [0u32; 3];
-            for (dy, row) in rows.iter().enumerate() {
-                for dx in 0..2 {
-                    sum[pattern.colour_at(bx + dx, by + dy).index()] += row[bx + dx].to_u32();
-                }
-            }
-            out[3 * x] = T::from_u32(sum[0]);
-            out[3 * x + 1] = T::from_u32((sum[1] + 1) >> 1);
-            out[3 * x + 2] = T::from_u32(sum[2]);
+    if n <= 1 {
+        return 0;
+    }
+    let period = 2 * (n - 1);
+    let m = i.rem_euclid(period as isize) as usize;
+    if m < n {
+        m
+    } else {
+        period - m
+    }
+}
+
+/// Row `y` of a frame 1 pixel wide or high: each missing colour is the rounded mean of the
+/// in-frame neighbours of that colour along the line, or the pixel's own sample if there is none
+/// (the 3x3 rule's reflected neighbours would fold onto the pixel itself).
+fn line_row<T: Sample>(rows: [&[T]; 5], y: usize, h: usize, pattern: CfaPattern, out: &mut [T]) {
+    let w = rows[2].len();
+    for x in 0..w {
+        let own = rows[2][x];
+        let mut sum = [T::Acc::default(); 3];
+        let mut count = [0u32; 3];
+        let mut add = |v: T, nx: usize, ny: usize| {
+            let c = pattern.colour_at(nx, ny).index();
+            sum[c] = sum[c] + v.weighted(1);
+            count[c] += 1;
+        };
+        if x > 0 {
+            add(rows[2][x - 1], x - 1, y);
+        }
+        if x + 1 < w {
+            add(rows[2][x + 1], x + 1, y);
+        }
+        if y > 0 {
+            add(rows[1][x], x, y - 1);
+        }
+        if y + 1 < h {
+            add(rows[3][x], x, y + 1);
+        }
+        let own_colour = pattern.colour_at(x, y).index();
+        for c in 0..3 {
+            out[3 * x + c] = if c != own_colour && count[c] > 0 {
+                T::mean(sum[c], count[c])
+            } else {
+                own
+            };
         }
     }
-    Ok(())
+}
+
+/// Nearest for one row of a frame at least 2x2; `rows` as for [`row`].
+fn nearest_row<T: Sample>(rows: [&[T]; 5], y: usize, h: usize, pattern: CfaPattern, out: &mut [T]) {
+    let w = rows[2].len();
+    let origin = |i: usize, n: usize| (i & !1).min(n - 2);
+    let by = origin(y, h);
+    // The block's two rows are in frame, so no reflection: rows[1] is y - 1, rows[3] is y + 1.
+    let block_rows = if by == y {
+        [rows[2], rows[3]]
+    } else {
+        [rows[1], rows[2]]
+    };
+    for x in 0..w {
+        let bx = origin(x, w);
+        let mut sum = [T::Acc::default(); 3];
+        for (dy, r) in block_rows.iter().enumerate() {
+            for dx in 0..2 {
+                let c = pattern.colour_at(bx + dx, by + dy).index();
+                sum[c] = sum[c] + r[bx + dx].weighted(1);
+            }
+        }
+        out[3 * x] = T::scaled_down(sum[0], 0);
+        out[3 * x + 1] = T::scaled_down(sum[1], 1);
+        out[3 * x + 2] = T::scaled_down(sum[2], 0);
+    }
 }
 
 /// One tap of a 5x5 filter: offset and weight (in sixteenths).
@@ -247,63 +380,39 @@ const MHC_OPPOSITE: [Tap; 9] = [
     (2, 0, -3),
 ];
 
-/// Malvar-He-Cutler demosaic of `input` into `output` (same size); see the module docs.
-pub fn mhc<T: Sample>(
-    input: &MosaicView<'_, T>,
-    output: &mut RgbViewMut<'_, T>,
-) -> Result<(), IspError> {
-    let (w, h) = same_size(input, output)?;
-    if w < 3 || h < 3 {
-        return bilinear(input, Border::Reflect101, output);
-    }
-    let pattern = input.pattern();
-    let max = T::MAX as i32;
-    for y in 0..h {
-        let rows: [&[T]; 5] =
-            core::array::from_fn(|i| input.row(reflect(y as isize + i as isize - 2, h)));
-        let out = output.row_mut(y);
-        for x in 0..w {
-            let cols: [usize; 5] =
-                core::array::from_fn(|i| reflect(x as isize + i as isize - 2, w));
-            let apply = |taps: &[Tap]| -> T {
-                let sum: i32 = taps
-                    .iter()
-                    .map(|&(dx, dy, k)| {
-                        k * rows[(2 + dy) as usize][cols[(2 + dx) as usize]].to_u32() as i32
-                    })
-                    .sum();
-                T::from_u32(((sum + 8) >> 4).clamp(0, max) as u32)
-            };
-            let own = pattern.colour_at(x, y);
-            let mut rgb = [rows[2][x]; 3];
-            match own {
-                CfaColour::Green => {
-                    rgb[pattern.colour_at(x + 1, y).index()] = apply(&MHC_CHROMA_HORIZONTAL);
-                    rgb[pattern.colour_at(x, y + 1).index()] = apply(&MHC_CHROMA_VERTICAL);
-                }
-                chroma => {
-                    rgb[1] = apply(&MHC_G_AT_CHROMA);
-                    rgb[if chroma == CfaColour::Red { 2 } else { 0 }] = apply(&MHC_OPPOSITE);
-                }
+/// Malvar-He-Cutler for one row of a frame at least 3x3; `rows` as for [`row`].
+fn mhc_row<T: Sample>(rows: [&[T]; 5], y: usize, pattern: CfaPattern, out: &mut [T]) {
+    let w = rows[2].len();
+    let pixel = |x: usize, cols: [usize; 5], out: &mut [T]| {
+        let apply = |taps: &[Tap]| -> T {
+            let mut sum = T::Acc::default();
+            for &(dx, dy, k) in taps {
+                sum = sum + rows[(2 + dy) as usize][cols[(2 + dx) as usize]].weighted(k);
             }
-            out[3 * x..3 * x + 3].copy_from_slice(&rgb);
+            T::scaled_down(sum, 4)
+        };
+        let own = pattern.colour_at(x, y);
+        let mut rgb = [rows[2][x]; 3];
+        match own {
+            CfaColour::Green => {
+                rgb[pattern.colour_at(x + 1, y).index()] = apply(&MHC_CHROMA_HORIZONTAL);
+                rgb[pattern.colour_at(x, y + 1).index()] = apply(&MHC_CHROMA_VERTICAL);
+            }
+            chroma => {
+                rgb[1] = apply(&MHC_G_AT_CHROMA);
+                rgb[if chroma == CfaColour::Red { 2 } else { 0 }] = apply(&MHC_OPPOSITE);
+            }
         }
-    }
-    Ok(())
-}
-
-/// Index `i` reflected without repeating the edge: valid for `i` up to `n - 1` steps outside
-/// `0..n` (one step for bilinear, two for MHC, which needs `n >= 3`); a 1-long line maps to 0.
-#[inline]
-fn reflect(i: isize, n: usize) -> usize {
-    if n == 1 {
-        0
-    } else if i < 0 {
-        (-i) as usize
-    } else if i as usize >= n {
-        2 * n - 2 - i as usize
-    } else {
-        i as usize
+        out[3 * x..3 * x + 3].copy_from_slice(&rgb);
+    };
+    for x in 0..w {
+        // Interior columns need no reflection.
+        let cols: [usize; 5] = if x >= 2 && x + 2 < w {
+            [x - 2, x - 1, x, x + 1, x + 2]
+        } else {
+            core::array::from_fn(|i| reflect(x as isize + i as isize - 2, w))
+        };
+        pixel(x, cols, out);
     }
 }
 
@@ -318,30 +427,27 @@ fn bilinear_row<T: Sample>(
     xs: core::ops::Range<usize>,
 ) {
     let [up, mid, down] = rows;
-    let v = |row: &[T], x: usize| row[x].to_u32();
+    let v = |row: &[T], x: usize| row[x].weighted(1);
     for x in xs {
         let (l, r) = horizontal(x);
         let own = pattern.colour_at(x, y);
-        let mut rgb = [0u32; 3];
-        rgb[own.index()] = v(mid, x);
+        let mut rgb = [mid[x]; 3];
         match own {
             CfaColour::Green => {
                 // The horizontal neighbours carry one chroma, the vertical ones the other.
                 let horizontal_colour = pattern.colour_at(x + 1, y);
                 let vertical_colour = pattern.colour_at(x, y + 1);
-                rgb[horizontal_colour.index()] = (v(mid, l) + v(mid, r) + 1) >> 1;
-                rgb[vertical_colour.index()] = (v(up, x) + v(down, x) + 1) >> 1;
+                rgb[horizontal_colour.index()] = T::scaled_down(v(mid, l) + v(mid, r), 1);
+                rgb[vertical_colour.index()] = T::scaled_down(v(up, x) + v(down, x), 1);
             }
             chroma => {
                 let g = v(up, x) + v(down, x) + v(mid, l) + v(mid, r);
                 let opposite = v(up, l) + v(up, r) + v(down, l) + v(down, r);
-                rgb[1] = (g + 2) >> 2;
+                rgb[1] = T::scaled_down(g, 2);
                 let other = if chroma == CfaColour::Red { 2 } else { 0 };
-                rgb[other] = (opposite + 2) >> 2;
+                rgb[other] = T::scaled_down(opposite, 2);
             }
         }
-        out[3 * x] = T::from_u32(rgb[0]);
-        out[3 * x + 1] = T::from_u32(rgb[1]);
-        out[3 * x + 2] = T::from_u32(rgb[2]);
+        out[3 * x..3 * x + 3].copy_from_slice(&rgb);
     }
 }

@@ -4,37 +4,94 @@
 
 use crate::{CfaPattern, IspError};
 
-/// A pixel sample type the integer paths work on: `u8` or `u16`.
+/// A pixel sample type the demosaicing kernels and views work on: `u8`, `u16` or `f32`.
+///
+/// Integer samples use their whole range; `f32` samples are linear values in `[0, 1]`. Kernels
+/// accumulate weighted sums in [`Sample::Acc`] and finish with [`Sample::scaled_down`], so one
+/// kernel gives the integer path (rounded half up, saturating) and the float path (exact,
+/// clamped to `[0, 1]`, NaN to 0).
 pub trait Sample: Copy + Default + PartialEq + core::fmt::Debug + 'static {
+    /// Accumulator of weighted sums: `i32` for integers, `f32` for `f32`.
+    type Acc: Copy + Default + core::ops::Add<Output = Self::Acc>;
+    /// `k * self` in the accumulator.
+    fn weighted(self, k: i32) -> Self::Acc;
+    /// `acc / 2^shift`: for integers rounded half up; clamped to the sample's range.
+    fn scaled_down(acc: Self::Acc, shift: u32) -> Self;
+    /// The mean of `n >= 1` samples whose sum is `acc`, rounded half up for integers.
+    fn mean(acc: Self::Acc, n: u32) -> Self;
+}
+
+/// An integer sample: `u8` or `u16`.
+pub trait IntSample: Sample {
     /// Largest value.
     const MAX: u32;
     /// Widened to `u32`.
     fn to_u32(self) -> u32;
-    /// From a `u32`, saturating at [`Sample::MAX`].
+    /// From a `u32`, saturating at [`IntSample::MAX`].
     fn from_u32(x: u32) -> Self;
 }
 
-impl Sample for u8 {
-    const MAX: u32 = u8::MAX as u32;
+macro_rules! int_sample {
+    ($t:ty) => {
+        impl Sample for $t {
+            type Acc = i32;
+            #[inline]
+            fn weighted(self, k: i32) -> i32 {
+                k * self as i32
+            }
+            #[inline]
+            fn scaled_down(acc: i32, shift: u32) -> Self {
+                let half = (1i32 << shift) >> 1;
+                ((acc + half) >> shift).clamp(0, <$t>::MAX as i32) as $t
+            }
+            #[inline]
+            fn mean(acc: i32, n: u32) -> Self {
+                let n = n.max(1) as i32;
+                ((acc.max(0) + n / 2) / n).min(<$t>::MAX as i32) as $t
+            }
+        }
+
+        impl IntSample for $t {
+            const MAX: u32 = <$t>::MAX as u32;
+            #[inline]
+            fn to_u32(self) -> u32 {
+                self as u32
+            }
+            #[inline]
+            fn from_u32(x: u32) -> Self {
+                x.min(<Self as IntSample>::MAX) as $t
+            }
+        }
+    };
+}
+
+int_sample!(u8);
+int_sample!(u16);
+
+impl Sample for f32 {
+    type Acc = f32;
     #[inline]
-    fn to_u32(self) -> u32 {
-        self as u32
+    fn weighted(self, k: i32) -> f32 {
+        k as f32 * self
     }
     #[inline]
-    fn from_u32(x: u32) -> Self {
-        x.min(<Self as Sample>::MAX) as u8
+    fn scaled_down(acc: f32, shift: u32) -> f32 {
+        // 2^-shift is exact.
+        clamp01(acc * (1.0 / (1u32 << shift.min(31)) as f32))
+    }
+    #[inline]
+    fn mean(acc: f32, n: u32) -> f32 {
+        clamp01(acc / n.max(1) as f32)
     }
 }
 
-impl Sample for u16 {
-    const MAX: u32 = u16::MAX as u32;
-    #[inline]
-    fn to_u32(self) -> u32 {
-        self as u32
-    }
-    #[inline]
-    fn from_u32(x: u32) -> Self {
-        x.min(<Self as Sample>::MAX) as u16
+/// `x` clamped to `[0, 1]`, NaN to 0.
+#[inline]
+fn clamp01(x: f32) -> f32 {
+    if x > 0.0 {
+        x.min(1.0)
+    } else {
+        0.0
     }
 }
 

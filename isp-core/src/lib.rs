@@ -20,12 +20,19 @@
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod ccm;
 mod cfa;
 pub mod colour;
 pub mod demosaic;
+pub mod denoise;
+pub mod dpc;
 pub mod frame;
+pub mod lsc;
 mod math;
+pub mod pipeline;
 pub mod srgb;
+pub mod tone;
+pub mod wb;
 
 pub use cfa::{CfaColour, CfaPattern};
 

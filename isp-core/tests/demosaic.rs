@@ -2,7 +2,7 @@
 //! sizes (including 1, 2, 3 and odd), all four patterns, both sample types and strides > width.
 
 use isp_core::demosaic::{bilinear, Border};
-use isp_core::frame::{MosaicView, RawFrame, RgbViewMut, Sample};
+use isp_core::frame::{IntSample, MosaicView, RawFrame, RgbViewMut};
 use isp_core::{CfaColour, CfaPattern, IspError};
 use proptest::prelude::*;
 
@@ -83,7 +83,7 @@ fn reference_opencv(m: &[u32], w: usize, h: usize, p: CfaPattern) -> Vec<[u32; 3
     out
 }
 
-fn run<T: Sample>(
+fn run<T: IntSample>(
     m: &[u32],
     w: usize,
     h: usize,
@@ -259,7 +259,7 @@ fn reference_mhc(m: &[u32], w: usize, h: usize, p: CfaPattern, max: u32) -> Vec<
     out
 }
 
-fn run_mhc<T: Sample>(m: &[u32], w: usize, h: usize, p: CfaPattern) -> Vec<[u32; 3]> {
+fn run_mhc<T: IntSample>(m: &[u32], w: usize, h: usize, p: CfaPattern) -> Vec<[u32; 3]> {
     let data: Vec<T> = m.iter().map(|v| T::from_u32(*v)).collect();
     let mosaic = MosaicView::new(&data, w, h, w, p).unwrap();
     let mut rgb = vec![T::default(); 3 * w * h];

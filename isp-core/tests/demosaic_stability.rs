@@ -4,7 +4,7 @@
 //! frames (no panic, right size). Methods: nearest, bilinear (both borders), Malvar-He-Cutler.
 
 use isp_core::demosaic::{bilinear, mhc, nearest, Border};
-use isp_core::frame::{MosaicView, RgbViewMut, Sample};
+use isp_core::frame::{IntSample, MosaicView, RgbViewMut};
 use isp_core::{CfaColour, CfaPattern};
 use proptest::prelude::*;
 
@@ -23,7 +23,7 @@ const METHODS: [Method; 4] = [
     Method::Mhc,
 ];
 
-fn demosaic<T: Sample>(method: Method, data: &[T], w: usize, h: usize, p: CfaPattern) -> Vec<T> {
+fn demosaic<T: IntSample>(method: Method, data: &[T], w: usize, h: usize, p: CfaPattern) -> Vec<T> {
     let mosaic = MosaicView::new(data, w, h, w, p).unwrap();
     let mut rgb = vec![T::default(); 3 * w * h];
     let mut out = RgbViewMut::new(&mut rgb, w, h, 3 * w).unwrap();

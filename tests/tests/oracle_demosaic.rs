@@ -5,11 +5,11 @@
 
 use camsim_tests::oracle::{oracle_arrays, Array};
 use isp_core::demosaic::{bilinear, Border};
-use isp_core::frame::{MosaicView, RgbViewMut, Sample};
+use isp_core::frame::{IntSample, MosaicView, RgbViewMut};
 use isp_core::CfaPattern;
 use proptest::prelude::*;
 
-fn ours<T: Sample>(data: &[T], w: usize, h: usize, p: CfaPattern) -> Vec<u32> {
+fn ours<T: IntSample>(data: &[T], w: usize, h: usize, p: CfaPattern) -> Vec<u32> {
     let mosaic = MosaicView::new(data, w, h, w, p).unwrap();
     let mut rgb = vec![T::default(); 3 * w * h];
     bilinear(
@@ -63,7 +63,7 @@ proptest! {
 /// Property 3: Malvar-He-Cutler within 1 LSB of colour-demosaicing's
 /// `demosaicing_CFA_Bayer_Malvar2004` (rounded and clipped) on the interior: a 2-pixel crop,
 /// since that library's scipy 'reflect' border breaks the CFA parity.
-fn mhc_matches_colour_demosaicing<T: Sample>(
+fn mhc_matches_colour_demosaicing<T: IntSample>(
     data: &[T],
     w: usize,
     h: usize,

@@ -1,0 +1,245 @@
+//! Defective pixel correction on the raw mosaic, before black level subtraction.
+//!
+//! Two mechanisms, both replacing a pixel by the median of its same-colour neighbours:
+//! - a **static map** of known bad pixels ([`DefectMap`], fixed capacity in a `heapless::Vec`,
+//!   kept sorted by row then column so a row finds its defects by binary search);
+//! - **dynamic detection**: a pixel more than `threshold` (raw units) above the second-largest,
+//!   or below the second-smallest, of its eight same-colour neighbours is replaced. Comparing with
+//!   the second extreme rather than the extreme lets a pair of adjacent same-colour defects
+//!   (a cluster) be found, while a one-pixel line, whose neighbours along the line share its
+//!   value, is kept.
+//!
+//! The same-colour neighbours of a Bayer pixel are the eight at offsets `(±2, 0)`, `(0, ±2)`
+//! and `(±2, ±2)`; outside the frame they mirror (reflect-101, which keeps the CFA colour).
+//! Neighbours that are the pixel itself (frames under 3 wide or high) or on the static map are
+//! left out of the median; with none left the pixel keeps its value. Detection reads only the
+//! input, never corrected values, so the result does not depend on the order rows are processed
+//! in (streaming is exact). The arithmetic is integer on raw samples, shared by the float and
+//! fixed-point pipelines.
+//!
+//! ```
+//! use isp_core::dpc::{correct_row, Defect, DefectMap, DpcConfig};
+//! use isp_core::frame::RawFrame;
+//! use isp_core::CfaPattern;
+//! let mut data = [100u16; 36];
+//! data[2 * 6 + 3] = 4000; // a hot pixel at (3, 2)
+//! let raw = RawFrame::new(&data, 6, 6, 6, 12, CfaPattern::Rggb, [0; 4], 4095).unwrap();
+//! let config = DpcConfig { static_defects: &[], dynamic_threshold: Some(200) };
+//! let mut row = [0u16; 6];
+//! correct_row(&raw, &config, 2, &mut row).unwrap();
+//! assert_eq!(row, [100; 6]);
+//! // Or list it as known:
+//! let mut map: DefectMap<16> = DefectMap::new();
+//! map.insert(Defect { x: 3, y: 2 }).unwrap();
+//! let config = DpcConfig { static_defects: map.as_slice(), dynamic_threshold: None };
+//! correct_row(&raw, &config, 2, &mut row).unwrap();
+//! assert_eq!(row, [100; 6]);
+//! ```
+
+use crate::demosaic::reflect;
+use crate::frame::RawFrame;
+use crate::IspError;
+
+/// A pixel position. Ordered by row, then column.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct Defect {
+    /// Row (first, so the derived order is row-major).
+    pub y: u16,
+    /// Column.
+    pub x: u16,
+}
+
+/// A static defect map of at most `N` pixels, sorted, without duplicates.
+#[derive(Debug, Clone, Default)]
+pub struct DefectMap<const N: usize> {
+    list: heapless::Vec<Defect, N>,
+}
+
+impl<const N: usize> DefectMap<N> {
+    /// An empty map.
+    pub const fn new() -> Self {
+        Self {
+            list: heapless::Vec::new(),
+        }
+    }
+
+    /// Adds a pixel (a duplicate is ignored); errors when the map is full.
+    pub fn insert(&mut self, defect: Defect) -> Result<(), IspError> {
+        match self.list.binary_search(&defect) {
+            Ok(_) => Ok(()),
+            Err(at) => self
+                .list
+                .insert(at, defect)
+                .map_err(|_| IspError::InvalidParameter {
+                    name: "defect map",
+                    allowed: "at most its capacity N pixels",
+                }),
+        }
+    }
+
+    /// The pixels, sorted by row then column.
+    pub fn as_slice(&self) -> &[Defect] {
+        &self.list
+    }
+}
+
+/// Defective pixel correction settings. The default corrects nothing.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct DpcConfig<'a> {
+    /// Known bad pixels, sorted by row then column without duplicates (as [`DefectMap`] keeps
+    /// them); pixels outside the frame are ignored.
+    pub static_defects: &'a [Defect],
+    /// Dynamic detection threshold in raw units, or `None` for no detection.
+    pub dynamic_threshold: Option<u16>,
+}
+
+impl DpcConfig<'_> {
+    /// Whether the stage changes anything.
+    pub fn is_active(&self) -> bool {
+        !self.static_defects.is_empty() || self.dynamic_threshold.is_some()
+    }
+
+    /// Checks that the static list is sorted without duplicates.
+    pub fn validate(&self) -> Result<(), IspError> {
+        if self.static_defects.windows(2).any(|p| p[0] >= p[1]) {
+            return Err(IspError::InvalidParameter {
+                name: "static_defects",
+                allowed: "sorted by (y, x) without duplicates",
+            });
+        }
+        Ok(())
+    }
+
+    fn is_static(&self, x: usize, y: usize) -> bool {
+        match (u16::try_from(x), u16::try_from(y)) {
+            (Ok(x), Ok(y)) => self.static_defects.binary_search(&Defect { x, y }).is_ok(),
+            _ => false,
+        }
+    }
+}
+
+/// Offsets of the eight same-colour neighbours.
+const NEIGHBOURS: [(isize, isize); 8] = [
+    (-2, -2),
+    (0, -2),
+    (2, -2),
+    (-2, 0),
+    (2, 0),
+    (-2, 2),
+    (0, 2),
+    (2, 2),
+];
+
+/// Writes row `y` of `raw`, corrected, into `out` (`width` samples).
+pub fn correct_row(
+    raw: &RawFrame<'_>,
+    config: &DpcConfig<'_>,
+    y: usize,
+    out: &mut [u16],
+) -> Result<(), IspError> {
+    config.validate()?;
+    let mosaic = raw.mosaic();
+    let (w, h) = (mosaic.width(), mosaic.height());
+    if y >= h || out.len() != w {
+        return Err(IspError::InvalidParameter {
+            name: "row",
+            allowed: "y < height and out of width samples",
+        });
+    }
+    correct_span(raw, config, y, 0, out);
+    Ok(())
+}
+
+/// Pixels `x0..x0 + out.len()` of row `y`, corrected, for a caller that has checked the
+/// arguments (a sorted list, the span within the frame).
+pub(crate) fn correct_span(
+    raw: &RawFrame<'_>,
+    config: &DpcConfig<'_>,
+    y: usize,
+    x0: usize,
+    out: &mut [u16],
+) {
+    let mosaic = raw.mosaic();
+    let (w, h) = (mosaic.width(), mosaic.height());
+    let x1 = x0 + out.len();
+    out.copy_from_slice(&mosaic.row(y)[x0..x1]);
+    if let Some(threshold) = config.dynamic_threshold {
+        let rows = [
+            mosaic.row(reflect(y as isize - 2, h)),
+            mosaic.row(y),
+            mosaic.row(reflect(y as isize + 2, h)),
+        ];
+        for x in x0..x1 {
+            let cols = [reflect(x as isize - 2, w), x, reflect(x as isize + 2, w)];
+            let v = rows[1][x];
+            // Two largest and two smallest neighbours.
+            let (mut max1, mut max2, mut min1, mut min2) = (0u16, 0u16, u16::MAX, u16::MAX);
+            for (ri, r) in rows.iter().enumerate() {
+                for (ci, &c) in cols.iter().enumerate() {
+                    if ri == 1 && ci == 1 {
+                        continue;
+                    }
+                    let n = r[c];
+                    if n > max1 {
+                        max2 = max1;
+                        max1 = n;
+                    } else if n > max2 {
+                        max2 = n;
+                    }
+                    if n < min1 {
+                        min2 = min1;
+                        min1 = n;
+                    } else if n < min2 {
+                        min2 = n;
+                    }
+                }
+            }
+            let hot = v as u32 > max2 as u32 + threshold as u32;
+            let cold = (v as u32) + (threshold as u32) < min2 as u32;
+            if hot || cold {
+                out[x - x0] = replacement(raw, config, x, y).unwrap_or(v);
+            }
+        }
+    }
+    if !config.static_defects.is_empty() {
+        let Ok(y16) = u16::try_from(y) else {
+            return;
+        };
+        let start = config.static_defects.partition_point(|d| d.y < y16);
+        for d in config.static_defects[start..]
+            .iter()
+            .take_while(|d| d.y == y16)
+        {
+            let x = d.x as usize;
+            if (x0..x1).contains(&x) {
+                if let Some(v) = replacement(raw, config, x, y) {
+                    out[x - x0] = v;
+                }
+            }
+        }
+    }
+}
+
+/// The median of the usable same-colour neighbours of `(x, y)`, or `None` if there are none.
+fn replacement(raw: &RawFrame<'_>, config: &DpcConfig<'_>, x: usize, y: usize) -> Option<u16> {
+    let mosaic = raw.mosaic();
+    let (w, h) = (mosaic.width(), mosaic.height());
+    let mut values = [0u16; 8];
+    let mut n = 0;
+    for (dx, dy) in NEIGHBOURS {
+        let nx = reflect(x as isize + dx, w);
+        let ny = reflect(y as isize + dy, h);
+        if (nx, ny) == (x, y) || config.is_static(nx, ny) {
+            continue;
+        }
+        values[n] = mosaic.row(ny)[nx];
+        n += 1;
+    }
+    let values = &mut values[..n];
+    values.sort_unstable();
+    match n {
+        0 => None,
+        _ if n % 2 == 1 => Some(values[n / 2]),
+        _ => Some(((values[n / 2 - 1] as u32 + values[n / 2] as u32).div_ceil(2)) as u16),
+    }
+}
