@@ -4,7 +4,8 @@
 //! - a **static map** of known bad pixels ([`DefectMap`], fixed capacity in a `heapless::Vec`,
 //!   kept sorted by row then column so a row finds its defects by binary search);
 //! - **dynamic detection**: a pixel more than `threshold` (raw units) above the second-largest,
-//!   or below the second-smallest, of its eight same-colour neighbours is replaced. Comparing with
+//!   or below the second-smallest, of its usable same-colour neighbours (at least three) is
+//!   replaced. Comparing with
 //!   the second extreme rather than the extreme lets a pair of adjacent same-colour defects
 //!   (a cluster) be found, while a one-pixel line, whose neighbours along the line share its
 //!   value, is kept.
@@ -12,7 +13,9 @@
 //! The same-colour neighbours of a Bayer pixel are the eight at offsets `(±2, 0)`, `(0, ±2)`
 //! and `(±2, ±2)`; outside the frame they mirror (reflect-101, which keeps the CFA colour).
 //! Neighbours that are the pixel itself (frames under 3 wide or high) or on the static map are
-//! left out of the median; with none left the pixel keeps its value. Detection reads only the
+//! not usable: they are left out of detection and of the median; with none left a listed pixel
+//! keeps its value. A static defect is replaced whatever its value; dynamic detection runs on
+//! the other pixels. Detection reads only the
 //! input, never corrected values, so the result does not depend on the order rows are processed
 //! in (streaming is exact). The arithmetic is integer on raw samples, shared by the float and
 //! fixed-point pipelines.
@@ -160,44 +163,22 @@ pub(crate) fn correct_span(
     out: &mut [u16],
 ) {
     let mosaic = raw.mosaic();
-    let (w, h) = (mosaic.width(), mosaic.height());
     let x1 = x0 + out.len();
     out.copy_from_slice(&mosaic.row(y)[x0..x1]);
     if let Some(threshold) = config.dynamic_threshold {
-        let rows = [
-            mosaic.row(reflect(y as isize - 2, h)),
-            mosaic.row(y),
-            mosaic.row(reflect(y as isize + 2, h)),
-        ];
+        let row = mosaic.row(y);
         for x in x0..x1 {
-            let cols = [reflect(x as isize - 2, w), x, reflect(x as isize + 2, w)];
-            let v = rows[1][x];
-            // Two largest and two smallest neighbours.
-            let (mut max1, mut max2, mut min1, mut min2) = (0u16, 0u16, u16::MAX, u16::MAX);
-            for (ri, r) in rows.iter().enumerate() {
-                for (ci, &c) in cols.iter().enumerate() {
-                    if ri == 1 && ci == 1 {
-                        continue;
-                    }
-                    let n = r[c];
-                    if n > max1 {
-                        max2 = max1;
-                        max1 = n;
-                    } else if n > max2 {
-                        max2 = n;
-                    }
-                    if n < min1 {
-                        min2 = min1;
-                        min1 = n;
-                    } else if n < min2 {
-                        min2 = n;
-                    }
-                }
+            let v = row[x];
+            let (mut values, n) = neighbours(raw, config, x, y);
+            if n < 3 {
+                continue; // too few neighbours to call the pixel an outlier
             }
-            let hot = v as u32 > max2 as u32 + threshold as u32;
-            let cold = (v as u32) + (threshold as u32) < min2 as u32;
+            let values = &mut values[..n];
+            values.sort_unstable();
+            let hot = v as u32 > values[n - 2] as u32 + threshold as u32;
+            let cold = (v as u32) + (threshold as u32) < values[1] as u32;
             if hot || cold {
-                out[x - x0] = replacement(raw, config, x, y).unwrap_or(v);
+                out[x - x0] = median(values);
             }
         }
     }
@@ -220,8 +201,9 @@ pub(crate) fn correct_span(
     }
 }
 
-/// The median of the usable same-colour neighbours of `(x, y)`, or `None` if there are none.
-fn replacement(raw: &RawFrame<'_>, config: &DpcConfig<'_>, x: usize, y: usize) -> Option<u16> {
+/// The usable same-colour neighbours of `(x, y)`: mirrored at the edges, leaving out the pixel
+/// itself and pixels on the static map.
+fn neighbours(raw: &RawFrame<'_>, config: &DpcConfig<'_>, x: usize, y: usize) -> ([u16; 8], usize) {
     let mosaic = raw.mosaic();
     let (w, h) = (mosaic.width(), mosaic.height());
     let mut values = [0u16; 8];
@@ -235,11 +217,23 @@ fn replacement(raw: &RawFrame<'_>, config: &DpcConfig<'_>, x: usize, y: usize) -
         values[n] = mosaic.row(ny)[nx];
         n += 1;
     }
+    (values, n)
+}
+
+/// The median of sorted `values` (the rounded-up mean of the middle two for an even count).
+fn median(values: &[u16]) -> u16 {
+    let n = values.len();
+    if n % 2 == 1 {
+        values[n / 2]
+    } else {
+        ((values[n / 2 - 1] as u32 + values[n / 2] as u32).div_ceil(2)) as u16
+    }
+}
+
+/// The median of the usable same-colour neighbours of `(x, y)`, or `None` if there are none.
+fn replacement(raw: &RawFrame<'_>, config: &DpcConfig<'_>, x: usize, y: usize) -> Option<u16> {
+    let (mut values, n) = neighbours(raw, config, x, y);
     let values = &mut values[..n];
     values.sort_unstable();
-    match n {
-        0 => None,
-        _ if n % 2 == 1 => Some(values[n / 2]),
-        _ => Some(((values[n / 2 - 1] as u32 + values[n / 2] as u32).div_ceil(2)) as u16),
-    }
+    (n > 0).then(|| median(values))
 }
