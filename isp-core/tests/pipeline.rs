@@ -141,7 +141,7 @@ fn dpc_reference(f: &Frame, s: &Settings) -> Vec<u16> {
                 if k % 2 == 1 {
                     n[k / 2]
                 } else {
-                    ((n[k / 2 - 1] as u32 + n[k / 2] as u32 + 1) / 2) as u16
+                    (n[k / 2 - 1] as u32 + n[k / 2] as u32).div_ceil(2) as u16
                 }
             };
             let v = f.at(x, y);
