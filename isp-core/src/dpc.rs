@@ -11,8 +11,10 @@
 //!   value, is kept.
 //!
 //! The same-colour neighbours of a Bayer pixel are the eight at offsets `(±2, 0)`, `(0, ±2)`
-//! and `(±2, ±2)`; outside the frame they mirror (reflect-101, which keeps the CFA colour).
-//! Neighbours that are the pixel itself (frames under 3 wide or high) or on the static map are
+//! and `(±2, ±2)`; an offset that leaves the frame is mirrored about the pixel (`-2` becomes
+//! `+2`, same CFA colour), so a pixel next to the edge still sees both sides of a thin line.
+//! Offsets outside the frame either way (frames under 3 wide or high), the pixel itself, and
+//! pixels on the static map are
 //! not usable: they are left out of detection and of the median; with none left a listed pixel
 //! keeps its value. A static defect is replaced whatever its value; dynamic detection runs on
 //! the other pixels. Detection reads only the
@@ -39,7 +41,6 @@
 //! assert_eq!(row, [100; 6]);
 //! ```
 
-use crate::demosaic::reflect;
 use crate::frame::RawFrame;
 use crate::IspError;
 
@@ -209,8 +210,9 @@ fn neighbours(raw: &RawFrame<'_>, config: &DpcConfig<'_>, x: usize, y: usize) ->
     let mut values = [0u16; 8];
     let mut n = 0;
     for (dx, dy) in NEIGHBOURS {
-        let nx = reflect(x as isize + dx, w);
-        let ny = reflect(y as isize + dy, h);
+        let (Some(nx), Some(ny)) = (mirror_about(x, dx, w), mirror_about(y, dy, h)) else {
+            continue;
+        };
         if (nx, ny) == (x, y) || config.is_static(nx, ny) {
             continue;
         }
@@ -218,6 +220,14 @@ fn neighbours(raw: &RawFrame<'_>, config: &DpcConfig<'_>, x: usize, y: usize) ->
         n += 1;
     }
     (values, n)
+}
+
+/// `i + d`, or `i - d` (the mirror about the pixel, same CFA colour) when that is outside
+/// `0..n`; `None` when both are.
+#[inline]
+fn mirror_about(i: usize, d: isize, n: usize) -> Option<usize> {
+    let inside = |v: isize| (v >= 0 && (v as usize) < n).then_some(v as usize);
+    inside(i as isize + d).or_else(|| inside(i as isize - d))
 }
 
 /// The median of sorted `values` (the rounded-up mean of the middle two for an even count).

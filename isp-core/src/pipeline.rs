@@ -317,7 +317,7 @@ impl Path for FloatPipeline<'_> {
     }
 }
 
-/// The fixed-point firmware path: parameters quantised once, tables built once (28 KiB).
+/// The fixed-point firmware path: parameters quantised once, tables built once (32 KiB).
 #[derive(Debug, Clone)]
 pub struct FixedPipeline<'a> {
     dpc: DpcConfig<'a>,

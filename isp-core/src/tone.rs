@@ -254,13 +254,21 @@ fn round_i32(v: f32) -> i32 {
     }
 }
 
-/// Entries of [`ToneLut`]: one every 16 input steps, plus the end.
+/// Entries of each of [`ToneLut`]'s direct tables for the darkest and the brightest inputs,
+/// where a contrast below 1 is steepest.
+const TONE_LOW: usize = 1024;
+/// First input of the bright direct table.
+const TONE_HIGH_START: usize = 65536 - TONE_LOW;
+/// Entries of [`ToneLut`]'s interpolated table: one every 16 input steps, plus the end.
 const TONE_ENTRIES: usize = 65536 / 16 + 1;
 
-/// Contrast and curve as a table for the fixed-point path: linear `u16` (65535 is 1.0) in and
-/// out, entries 16 input steps apart, linear interpolation. 4097 `u16`, 8 KiB.
+/// Contrast and curve as tables for the fixed-point path: linear `u16` (65535 is 1.0) in and
+/// out; the lowest and highest 1024 inputs read direct tables, the rest interpolate linearly
+/// between entries 16 input steps apart. 6145 `u16`, 12 KiB.
 #[derive(Clone)]
 pub struct ToneLut {
+    low: [u16; TONE_LOW],
+    high: [u16; TONE_LOW],
     table: [u16; TONE_ENTRIES],
 }
 
@@ -273,17 +281,32 @@ impl core::fmt::Debug for ToneLut {
 impl ToneLut {
     /// The table of `tone`'s contrast and curve.
     pub fn new(tone: &Tone) -> Self {
+        let value = |v: usize| (tone.channel((v as f32 / 65535.0).min(1.0)) * 65535.0 + 0.5) as u16;
+        let mut low = [0u16; TONE_LOW];
+        for (i, v) in low.iter_mut().enumerate() {
+            *v = value(i);
+        }
+        let mut high = [0u16; TONE_LOW];
+        for (i, v) in high.iter_mut().enumerate() {
+            *v = value(TONE_HIGH_START + i);
+        }
         let mut table = [0u16; TONE_ENTRIES];
         for (i, v) in table.iter_mut().enumerate() {
-            let x = ((16 * i) as f32 / 65535.0).min(1.0);
-            *v = (tone.channel(x) * 65535.0 + 0.5) as u16;
+            *v = value(16 * i);
         }
-        Self { table }
+        Self { low, high, table }
     }
 
     /// One channel through the table.
     #[inline]
     pub fn lookup(&self, x: u16) -> u16 {
+        let v = x as usize;
+        if v < TONE_LOW {
+            return self.low[v];
+        }
+        if v >= TONE_HIGH_START {
+            return self.high[v - TONE_HIGH_START];
+        }
         let (i, f) = ((x >> 4) as usize, (x & 15) as u32);
         ((self.table[i] as u32 * (16 - f) + self.table[i + 1] as u32 * f + 8) >> 4) as u16
     }

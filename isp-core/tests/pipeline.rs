@@ -129,7 +129,16 @@ fn dpc_reference(f: &Frame, s: &Settings) -> Vec<u16> {
                     if dx == 0 && dy == 0 {
                         continue;
                     }
-                    let (nx, ny) = (mirror(x as i64 + dx, f.w), mirror(y as i64 + dy, f.h));
+                    // Off the frame: the mirror image about the pixel, if that is on it.
+                    let about = |i: usize, d: i64, n: usize| {
+                        [i as i64 + d, i as i64 - d]
+                            .into_iter()
+                            .find(|v| *v >= 0 && *v < n as i64)
+                            .map(|v| v as usize)
+                    };
+                    let (Some(nx), Some(ny)) = (about(x, dx, f.w), about(y, dy, f.h)) else {
+                        continue;
+                    };
                     if (nx, ny) != (x, y) && !listed(nx, ny) {
                         n.push(f.at(nx, ny));
                     }

@@ -1,0 +1,420 @@
+//! Stages on their own: defect correction on injected defects, shading against a cos^4
+//! falloff, AWB on scenes with a known illuminant, calibration and presets, the fixed-point
+//! tables against the exact curves.
+
+use isp_core::ccm::Calibration;
+use isp_core::colour::{self, LINEAR_SRGB_TO_XYZ};
+use isp_core::dpc::{correct_row, Defect, DefectMap, DpcConfig};
+use isp_core::frame::RawFrame;
+use isp_core::lsc::LensShading;
+use isp_core::srgb::{self, EncodeLut};
+use isp_core::tone::{Look, Tone, ToneCurve, ToneLut};
+use isp_core::wb::{self, AwbMethod, WbPreset};
+use isp_core::CfaPattern;
+
+/// A smooth 12-bit scene in the mosaic: each CFA colour a gentle ramp.
+fn smooth_scene(w: usize, h: usize, pattern: CfaPattern) -> Vec<u16> {
+    let mut data = vec![0u16; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let c = pattern.colour_at(x, y).index() as f32;
+            data[y * w + x] = (800.0 + 20.0 * x as f32 + 15.0 * y as f32 + 300.0 * c) as u16;
+        }
+    }
+    data
+}
+
+fn correct(data: &[u16], w: usize, h: usize, p: CfaPattern, config: &DpcConfig) -> Vec<u16> {
+    let raw = RawFrame::new(data, w, h, w, 12, p, [0; 4], 4095).unwrap();
+    let mut out = vec![0u16; w * h];
+    for y in 0..h {
+        correct_row(&raw, config, y, &mut out[y * w..(y + 1) * w]).unwrap();
+    }
+    out
+}
+
+/// Hot, dead and stuck pixels, alone, in clusters (a 2x2 block and a same-colour pair) and on
+/// the border and corners, are found dynamically and replaced by a value within the range of
+/// their same-colour neighbours; the clean pixels are untouched.
+#[test]
+fn dynamic_detection_replaces_injected_defects() {
+    let (w, h) = (20, 16);
+    for pattern in CfaPattern::ALL {
+        let clean = smooth_scene(w, h, pattern);
+        let mut data = clean.clone();
+        let defects: [(usize, usize, u16); 11] = [
+            (5, 5, 4095),   // hot
+            (9, 4, 0),      // dead
+            (13, 9, 2900),  // stuck at a mid value
+            (0, 0, 4095),   // corner
+            (19, 7, 0),     // right border
+            (6, 15, 4095),  // bottom border
+            (10, 12, 4095), // 2x2 cluster
+            (11, 12, 4095),
+            (10, 13, 4095),
+            (11, 13, 4095),
+            (15, 2, 4095), // with (17, 2): a same-colour pair
+        ];
+        for &(x, y, v) in &defects {
+            data[y * w + x] = v;
+        }
+        data[2 * w + 17] = 4095;
+        let config = DpcConfig {
+            static_defects: &[],
+            dynamic_threshold: Some(400),
+        };
+        let out = correct(&data, w, h, pattern, &config);
+        let mut bad: Vec<(usize, usize)> = defects.iter().map(|d| (d.0, d.1)).collect();
+        bad.push((17, 2));
+        for y in 0..h {
+            for x in 0..w {
+                let (o, c) = (out[y * w + x] as i32, clean[y * w + x] as i32);
+                if bad.contains(&(x, y)) {
+                    // The smooth scene changes by at most 2 * (20 + 15) between same-colour
+                    // neighbours, so a good replacement is that close to the clean value.
+                    assert!(
+                        (o - c).abs() <= 80,
+                        "{pattern:?} ({x}, {y}): {o} vs clean {c}"
+                    );
+                } else {
+                    assert_eq!(o, c, "{pattern:?} ({x}, {y}) changed");
+                }
+            }
+        }
+    }
+}
+
+/// A one-pixel bright line is detail, not a defect: it stays.
+#[test]
+fn dynamic_detection_keeps_a_thin_line() {
+    let (w, h) = (16, 12);
+    let mut data = smooth_scene(w, h, CfaPattern::Rggb);
+    for x in 0..w {
+        data[5 * w + x] = 3500;
+    }
+    let config = DpcConfig {
+        static_defects: &[],
+        dynamic_threshold: Some(400),
+    };
+    assert_eq!(correct(&data, w, h, CfaPattern::Rggb, &config), data);
+}
+
+/// Listed pixels are replaced whatever their value, and a listed neighbour never feeds a
+/// replacement, so a listed cluster is repaired from good pixels only.
+#[test]
+fn static_map_replaces_listed_pixels_from_good_neighbours() {
+    let (w, h) = (12, 10);
+    let clean = smooth_scene(w, h, CfaPattern::Grbg);
+    let mut data = clean.clone();
+    let mut map: DefectMap<8> = DefectMap::new();
+    for (x, y) in [(4usize, 4usize), (6, 4), (4, 6), (0, 9), (11, 0)] {
+        data[y * w + x] = 4095;
+        map.insert(Defect {
+            x: x as u16,
+            y: y as u16,
+        })
+        .unwrap();
+    }
+    map.insert(Defect { x: 4, y: 4 }).unwrap(); // a duplicate changes nothing
+    assert_eq!(map.as_slice().len(), 5);
+    let config = DpcConfig {
+        static_defects: map.as_slice(),
+        dynamic_threshold: None,
+    };
+    let out = correct(&data, w, h, CfaPattern::Grbg, &config);
+    for d in map.as_slice() {
+        let i = d.y as usize * w + d.x as usize;
+        assert!(
+            (out[i] as i32 - clean[i] as i32).abs() <= 80,
+            "{d:?}: {}",
+            out[i]
+        );
+    }
+    let unlisted = (0..w * h).filter(|i| {
+        !map.as_slice()
+            .iter()
+            .any(|d| d.y as usize * w + d.x as usize == *i)
+    });
+    for i in unlisted {
+        assert_eq!(out[i], data[i]);
+    }
+    // A full map says so.
+    let mut small: DefectMap<1> = DefectMap::new();
+    small.insert(Defect { x: 0, y: 0 }).unwrap();
+    assert!(small.insert(Defect { x: 1, y: 0 }).is_err());
+    // An unsorted list is refused.
+    let unsorted = [Defect { x: 2, y: 1 }, Defect { x: 1, y: 1 }];
+    let config = DpcConfig {
+        static_defects: &unsorted,
+        dynamic_threshold: None,
+    };
+    let raw = RawFrame::new(&data, w, h, w, 12, CfaPattern::Grbg, [0; 4], 4095).unwrap();
+    assert!(correct_row(&raw, &config, 0, &mut vec![0; w]).is_err());
+}
+
+/// Shading correction undoes a synthetic cos^4 falloff with colour shading: a flat grey scene
+/// seen through it comes back flat to the grid's interpolation error.
+#[test]
+fn lens_shading_undoes_cos4_falloff() {
+    let (w, h) = (160, 120);
+    let (gw, gh) = (17, 13);
+    // Half field of view 35 degrees on the diagonal; red falls off 10% more at the corner.
+    let half_diag = ((w - 1) as f64).hypot((h - 1) as f64) / 2.0;
+    let focal = half_diag / 35f64.to_radians().tan();
+    let falloff = |x: f64, y: f64, position: usize| {
+        let r = (x - (w - 1) as f64 / 2.0).hypot(y - (h - 1) as f64 / 2.0);
+        let cos = (r / focal).atan().cos();
+        let colour_shading = if position == 0 {
+            1.0 - 0.1 * (r / half_diag).powi(2)
+        } else {
+            1.0
+        };
+        cos.powi(4) * colour_shading
+    };
+    let mut gains = vec![0u16; gw * gh * 4];
+    for gy in 0..gh {
+        for gx in 0..gw {
+            let (x, y) = (
+                gx as f64 * (w - 1) as f64 / (gw - 1) as f64,
+                gy as f64 * (h - 1) as f64 / (gh - 1) as f64,
+            );
+            for p in 0..4 {
+                gains[(gy * gw + gx) * 4 + p] = (4096.0 / falloff(x, y, p)).round() as u16;
+            }
+        }
+    }
+    let lsc = LensShading::new(gw, gh, &gains).unwrap();
+    let mut worst: f64 = 0.0;
+    for y in 0..h {
+        for x in 0..w {
+            let p = (y % 2) * 2 + x % 2;
+            let seen = 0.5 * falloff(x as f64, y as f64, p);
+            let corrected = seen * lsc.gain_f32(x, y, w, h) as f64;
+            worst = worst.max((corrected / 0.5 - 1.0).abs());
+        }
+    }
+    // Bilinear interpolation of the smooth 1/cos^4 on a 17x13 grid, Q4.12 nodes: under 1%,
+    // against a falloff of more than a third at the corner.
+    assert!(worst < 0.01, "worst relative error {worst}");
+    // The corner is darkened by more than a third, so the test has something to correct.
+    assert!(falloff(0.0, 0.0, 1) < 0.65);
+}
+
+/// A scene of random reflectances under a coloured illuminant, as a 12-bit mosaic.
+fn tinted_scene(illuminant: [f32; 3], pattern: CfaPattern, seed: u64, colourful: bool) -> Vec<u16> {
+    let (w, h) = (64, 48);
+    let mut state = seed;
+    let mut next = || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((state >> 33) as f32) / (1u64 << 31) as f32
+    };
+    // 8x8 patches of grey-world-balanced colours: each patch's colour and its complement.
+    let mut patches = vec![[0.0f32; 3]; 8 * 6];
+    for i in 0..patches.len() / 2 {
+        let c = if colourful {
+            [next(), next(), next()].map(|v| 0.1 + 0.6 * v)
+        } else {
+            [next(); 3].map(|v| 0.1 + 0.6 * v)
+        };
+        patches[2 * i] = c;
+        patches[2 * i + 1] = c.map(|v| 0.8 - v);
+    }
+    let mut data = vec![0u16; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let c = pattern.colour_at(x, y).index();
+            let reflectance = patches[(y / 8) * 8 + x / 8][c];
+            // Edges between patches in every channel, so grey edge has something to see.
+            data[y * w + x] = (64.0 + 3000.0 * reflectance * illuminant[c]) as u16;
+        }
+    }
+    data
+}
+
+fn angular_error_deg(a: [f32; 3], b: [f32; 3]) -> f64 {
+    let dot: f64 = (0..3).map(|i| a[i] as f64 * b[i] as f64).sum();
+    let na: f64 = a.iter().map(|v| (*v as f64).powi(2)).sum::<f64>().sqrt();
+    let nb: f64 = b.iter().map(|v| (*v as f64).powi(2)).sum::<f64>().sqrt();
+    (dot / (na * nb)).clamp(-1.0, 1.0).acos().to_degrees()
+}
+
+/// Every AWB method recovers a warm illuminant from a scene of grey patches (all four
+/// assumptions hold), and grey world also from a colourful scene that averages to grey.
+#[test]
+fn awb_methods_recover_the_illuminant() {
+    let illuminant = [1.0f32, 0.8, 0.45]; // warm, tungsten-like in linear sRGB
+    let grey_patches = [
+        AwbMethod::GreyWorld,
+        AwbMethod::ShadesOfGrey { p: 6.0 },
+        AwbMethod::GreyEdge { p: 1.0 },
+        AwbMethod::GreyEdge { p: 6.0 },
+        AwbMethod::WhitePatch { percentile: 99.0 },
+    ];
+    for pattern in CfaPattern::ALL {
+        for (colourful, methods) in [(false, &grey_patches[..]), (true, &grey_patches[..1])] {
+            let data = tinted_scene(illuminant, pattern, 7, colourful);
+            let raw = RawFrame::new(&data, 64, 48, 64, 12, pattern, [64; 4], 4095).unwrap();
+            // Quantisation to 12 bits and white patch's histogram bins leave a little error.
+            let bound = 0.5;
+            for &method in methods {
+                let est = wb::estimate(&raw, method, &LINEAR_SRGB_TO_XYZ).unwrap();
+                let err = angular_error_deg(est.neutral, illuminant);
+                assert!(
+                    err < bound,
+                    "{pattern:?} {method:?}: {err} degrees, {est:?}"
+                );
+                assert_eq!(est.gains[1], 1.0);
+                // The temperature of the estimate is that of the light (exactly for grey world).
+                let truth = wb::cct_of_neutral(illuminant, &LINEAR_SRGB_TO_XYZ).unwrap();
+                let k_bound = if method == AwbMethod::GreyWorld {
+                    20.0
+                } else {
+                    600.0
+                };
+                assert!(
+                    (est.cct_k - truth).abs() < k_bound,
+                    "{method:?}: {} K vs {truth} K",
+                    est.cct_k
+                );
+                assert!(truth < 5000.0);
+            }
+        }
+    }
+    // No content: an error, not a guess.
+    let black = vec![64u16; 16 * 16];
+    let raw = RawFrame::new(&black, 16, 16, 16, 12, CfaPattern::Rggb, [64; 4], 4095).unwrap();
+    assert!(wb::estimate(&raw, AwbMethod::GreyWorld, &LINEAR_SRGB_TO_XYZ).is_err());
+    let one = [100u16];
+    let raw = RawFrame::new(&one, 1, 1, 1, 12, CfaPattern::Rggb, [0; 4], 4095).unwrap();
+    assert!(wb::estimate(&raw, AwbMethod::GreyWorld, &LINEAR_SRGB_TO_XYZ).is_err());
+    assert!(AwbMethod::from_name("grey-edge").is_ok());
+    assert!(AwbMethod::from_name("magic").is_err());
+}
+
+/// The estimated CCT of a daylight neutral is its temperature (McCamy on the daylight locus is
+/// good to tens of kelvin here).
+#[test]
+fn cct_of_a_daylight_neutral() {
+    for cct in [5000.0, 6504.0, 7500.0] {
+        let xyz = colour::xy_to_xyz(colour::cct_to_xy_daylight(cct).unwrap()).unwrap();
+        let rgb = colour::mat3_mul_vec(&colour::XYZ_TO_LINEAR_SRGB, xyz);
+        let neutral = [rgb[0] / rgb[1], 1.0, rgb[2] / rgb[1]].map(|v| v as f32);
+        let est = wb::cct_of_neutral(neutral, &LINEAR_SRGB_TO_XYZ).unwrap();
+        assert!((est - cct).abs() < 60.0, "{cct}: {est}");
+    }
+}
+
+/// Calibration: a camera that sees linear sRGB gets the identity CCM at D65; a camera with a
+/// different response gets a CCM that maps its colours back, greys stay grey under each
+/// preset, and the DNG interpolation weight is linear in inverse CCT.
+#[test]
+fn calibration_ccm_and_presets() {
+    // A camera whose RGB is a mix of sRGB primaries.
+    let mix = [[0.8, 0.15, 0.05], [0.1, 0.8, 0.1], [0.02, 0.18, 0.8]];
+    let camera_to_xyz = colour::mat3_mul(&LINEAR_SRGB_TO_XYZ, &colour::mat3_inverse(&mix).unwrap());
+    let cal = Calibration::new([2856.0, 6504.0], [camera_to_xyz, camera_to_xyz]).unwrap();
+    assert!((cal.weight(2856.0) - 1.0).abs() < 1e-12);
+    assert!(cal.weight(6504.0).abs() < 1e-12);
+    let mid = 2.0 / (1.0 / 2856.0 + 1.0 / 6504.0);
+    assert!((cal.weight(mid) - 0.5).abs() < 1e-12);
+    assert_eq!(cal.weight(1000.0), 1.0);
+    let ccm = cal.ccm(6504.0, [1.0; 3]).unwrap();
+    // Under D65 a camera colour mix * rgb comes back to rgb.
+    let rgb = [0.2f64, 0.5, 0.7];
+    let cam = colour::mat3_mul_vec(&mix, rgb);
+    for i in 0..3 {
+        let back: f64 = (0..3).map(|j| ccm[i][j] as f64 * cam[j]).sum();
+        assert!((back - rgb[i]).abs() < 2e-3, "{i}: {back} vs {}", rgb[i]);
+    }
+    for preset in WbPreset::ALL {
+        let gains = cal.preset_gains(preset).unwrap();
+        // The preset's illuminant, seen by the camera and balanced, is neutral.
+        let xyz = colour::xy_to_xyz(preset.xy().unwrap()).unwrap();
+        let cam = colour::mat3_mul_vec(&colour::mat3_inverse(&camera_to_xyz).unwrap(), xyz);
+        let balanced: Vec<f64> = (0..3).map(|i| cam[i] * gains[i] as f64).collect();
+        assert!((balanced[0] / balanced[1] - 1.0).abs() < 1e-5, "{preset:?}");
+        assert!((balanced[2] / balanced[1] - 1.0).abs() < 1e-5, "{preset:?}");
+        // And the CCM at that temperature keeps it grey.
+        let cct = colour::xy_to_cct_mccamy(preset.xy().unwrap()).unwrap();
+        let ccm = cal.ccm(cct, gains).unwrap();
+        let white: Vec<f32> = (0..3).map(|i| ccm[i].iter().sum()).collect();
+        assert!(
+            (white[0] - white[1]).abs() < 2e-3 && (white[2] - white[1]).abs() < 2e-3,
+            "{preset:?}: {white:?}"
+        );
+    }
+    // Tungsten needs more blue gain than daylight.
+    let t = cal.preset_gains(WbPreset::Tungsten).unwrap();
+    let d = cal.preset_gains(WbPreset::Daylight).unwrap();
+    assert!(t[2] > d[2] && t[0] < d[0]);
+    assert!(Calibration::new([5000.0, 5000.0], [camera_to_xyz; 2]).is_err());
+    assert!(Calibration::single(6504.0, [[0.0; 3]; 3]).is_err());
+}
+
+/// The sRGB table is within 0.5 output LSB of the exact curve before rounding, at 8 and 16
+/// bits, for every one of the 65536 inputs; rounded, it is within 1 LSB.
+#[test]
+fn encode_lut_within_half_lsb_of_exact_curve() {
+    for bits in [8u8, 16] {
+        let lut = EncodeLut::new(bits).unwrap();
+        let max = lut.max() as f64;
+        let mut worst: f64 = 0.0;
+        for v in 0..=65535u16 {
+            let x = v as f64 / 65535.0;
+            let exact = if x <= 0.0031308 {
+                12.92 * x
+            } else {
+                1.055 * x.powf(1.0 / 2.4) - 0.055
+            } * max;
+            let got = lut.lookup_q8(v) as f64 / 256.0;
+            worst = worst.max((got - exact).abs());
+            assert!((lut.lookup(v) as f64 - exact).abs() <= 1.0);
+        }
+        assert!(worst <= 0.5, "{bits}-bit: worst {worst} LSB");
+    }
+    assert!(EncodeLut::new(12).is_err());
+    // The float curve itself: a spot check against the formula.
+    assert!((srgb::encode(0.5) - 0.735_356_6).abs() < 1e-6);
+}
+
+/// The tone table follows the exact tone function to well under an 8-bit step; the identity
+/// look is the identity.
+#[test]
+fn tone_table_follows_the_tone_function() {
+    let curve = ToneCurve::new(&[[0.0, 0.0], [0.25, 0.35], [0.7, 0.8], [1.0, 1.0]]).unwrap();
+    for tone in [
+        Look::Vivid.tone(),
+        Look::HighContrast.tone(),
+        Tone {
+            saturation: 1.0,
+            contrast: 0.6,
+            curve,
+        },
+    ] {
+        let lut = ToneLut::new(&tone);
+        for v in (0..=65535u32).step_by(7) {
+            let exact = tone.channel(v as f32 / 65535.0) * 65535.0;
+            let got = lut.lookup(v as u16) as f32;
+            // 8 / 65535 linear: at most 0.03 of an 8-bit sRGB step anywhere on the curve.
+            assert!(
+                (got - exact).abs() < 8.0,
+                "{tone:?} at {v}: {got} vs {exact}"
+            );
+        }
+    }
+    let neutral = Look::Neutral.tone();
+    assert!(neutral.saturation_is_identity() && neutral.curve_is_identity());
+    assert_eq!(neutral.apply([0.1, 0.5, 0.9]), [0.1, 0.5, 0.9]);
+    // Mono is grey.
+    let mono = Look::Mono.tone().apply([0.8, 0.2, 0.1]);
+    assert!((mono[0] - mono[1]).abs() < 1e-6 && (mono[1] - mono[2]).abs() < 1e-6);
+    assert!(ToneCurve::new(&[[0.5, 0.1], [0.4, 0.2]]).is_err());
+    assert!(Tone {
+        saturation: 5.0,
+        ..Tone::default()
+    }
+    .validate()
+    .is_err());
+}

@@ -1,0 +1,107 @@
+//! A full pipeline run, both paths, every stage on, makes no heap allocation: a counting global
+//! allocator sees zero between the start and the end of the run.
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use isp_core::demosaic::Method;
+use isp_core::dpc::{Defect, DefectMap, DpcConfig};
+use isp_core::frame::{RawFrame, RgbViewMut};
+use isp_core::lsc::LensShading;
+use isp_core::pipeline::{scratch_len, FixedPipeline, FloatPipeline, IspConfig};
+use isp_core::tone::{Tone, ToneCurve};
+use isp_core::wb::{self, AwbMethod};
+use isp_core::CfaPattern;
+
+struct Counting;
+
+static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
+        unsafe { System.alloc(layout) }
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+#[test]
+fn full_pipeline_run_allocates_nothing() {
+    let (w, h) = (64, 48);
+    let data: Vec<u16> = (0..w * h).map(|i| ((i * 7919) % 4096) as u16).collect();
+    let gains = vec![5000u16; 5 * 4 * 4];
+    let mut scratch_f = vec![0.0f32; scratch_len(w).unwrap()];
+    let mut scratch_u = vec![0u16; scratch_len(w).unwrap()];
+    let mut out8 = vec![0u8; w * h * 3];
+    let mut out16 = vec![0u16; w * h * 3];
+    let mut map: DefectMap<4> = DefectMap::new();
+    map.insert(Defect { x: 3, y: 4 }).unwrap();
+    let curve = ToneCurve::new(&[[0.0, 0.0], [0.5, 0.6], [1.0, 1.0]]).unwrap();
+
+    let before = ALLOCATIONS.load(Ordering::SeqCst);
+    let raw = RawFrame::new(&data, w, h, w, 12, CfaPattern::Grbg, [64; 4], 4095).unwrap();
+    let awb = wb::estimate(
+        &raw,
+        AwbMethod::WhitePatch { percentile: 99.0 },
+        &isp_core::colour::LINEAR_SRGB_TO_XYZ,
+    )
+    .unwrap();
+    let config = IspConfig {
+        dpc: DpcConfig {
+            static_defects: map.as_slice(),
+            dynamic_threshold: Some(300),
+        },
+        lsc: Some(LensShading::new(5, 4, &gains).unwrap()),
+        gain: 1.3,
+        wb_gains: awb.gains,
+        demosaic: Method::Mhc,
+        denoise: 0.05,
+        ccm: [[1.5, -0.3, -0.2], [-0.2, 1.4, -0.2], [0.0, -0.4, 1.4]],
+        tone: Tone {
+            saturation: 1.2,
+            contrast: 1.1,
+            curve,
+        },
+    };
+    let float = FloatPipeline::new(&config).unwrap();
+    float
+        .run(
+            &raw,
+            0..h,
+            &mut scratch_f,
+            &mut RgbViewMut::new(&mut out8, w, h, 3 * w).unwrap(),
+        )
+        .unwrap();
+    let fixed8 = FixedPipeline::new(&config, 8).unwrap();
+    fixed8
+        .run(
+            &raw,
+            0..h,
+            &mut scratch_u,
+            &mut RgbViewMut::new(&mut out8, w, h, 3 * w).unwrap(),
+        )
+        .unwrap();
+    let fixed16 = FixedPipeline::new(&config, 16).unwrap();
+    for band in 0..h / 8 {
+        let rows = band * 8..band * 8 + 8;
+        let chunk = &mut out16[rows.start * 3 * w..rows.end * 3 * w];
+        fixed16
+            .run(
+                &raw,
+                rows,
+                &mut scratch_u,
+                &mut RgbViewMut::new(chunk, w, 8, 3 * w).unwrap(),
+            )
+            .unwrap();
+    }
+    let after = ALLOCATIONS.load(Ordering::SeqCst);
+    assert_eq!(after - before, 0, "the pipeline allocated");
+    // The run did something.
+    assert!(out8.iter().any(|v| *v > 0) && out16.iter().any(|v| *v > 0));
+}
