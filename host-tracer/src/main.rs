@@ -26,6 +26,9 @@ enum Command {
     Dof(DofArgs),
     /// Demosaic a single-channel 8- or 16-bit Bayer mosaic (PNG or PGM) into RGB of the same depth.
     Demosaic(DemosaicArgs),
+    /// Run the ISP (black level, defects, gain, white balance, demosaic, denoise, colour matrix,
+    /// tone, sRGB) on a raw mosaic (PNG or PGM) and write an sRGB image.
+    Isp(host_tracer::isp_cmd::IspArgs),
     /// Measure accuracy against speed.
     Bench {
         #[command(subcommand)]
@@ -170,6 +173,7 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Dof(args) => dof(args),
         Command::Demosaic(args) => demosaic(args),
+        Command::Isp(args) => host_tracer::isp_cmd::run(args),
         Command::Bench {
             what: BenchCommand::Demosaic(args),
         } => bench_demosaic(args),

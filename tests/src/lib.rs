@@ -8,6 +8,7 @@
 //! (`tests/tests/fuzz_bodies.rs`), which keeps the targets compiling and exercised in CI.
 
 pub mod fuzz_bodies;
+pub mod isp_reference;
 pub mod oracle;
 
 /// Index of the first element of `ours` that differs from `theirs` by more than

@@ -75,6 +75,31 @@ fn checks() -> bool {
         && undistorted[0] > 0.3
         && CfaPattern::Rggb.colour_at(1, 1) == CfaColour::Blue
         && srgb::encode(1.0) > 0.999
+        && pipeline_runs()
+}
+
+/// The whole fixed-point ISP on a flat 8x4 frame in stack buffers: 0.5 linear is sRGB 188.
+fn pipeline_runs() -> bool {
+    use isp_core::frame::{RawFrame, RgbViewMut};
+    use isp_core::pipeline::{FixedPipeline, IspConfig};
+    let data = [2176u16; 32];
+    let Ok(raw) = RawFrame::new(&data, 8, 4, 8, 12, CfaPattern::Rggb, [256; 4], 4095) else {
+        return false;
+    };
+    let config = IspConfig {
+        demosaic: isp_core::demosaic::Method::Mhc,
+        denoise: 0.05,
+        ..IspConfig::default()
+    };
+    let Ok(pipeline) = FixedPipeline::new(&config, 8) else {
+        return false;
+    };
+    let mut scratch = [0u16; 14 * 8];
+    let mut rgb = [0u8; 96];
+    let Ok(mut out) = RgbViewMut::new(&mut rgb, 8, 4, 24) else {
+        return false;
+    };
+    pipeline.run(&raw, 0..4, &mut scratch, &mut out).is_ok() && rgb.iter().all(|v| *v == 188)
 }
 
 /// The precompiled libcore carries unwind tables that name this symbol; with `panic = "abort"`

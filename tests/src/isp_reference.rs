@@ -1,0 +1,362 @@
+//! A slow, obviously-correct reference of isp-core's documented float semantics (the
+//! `pipeline` module docs), in f64, whole frame, one stage after another, written without
+//! looking at the pipeline's code paths: DPC, shading, gain, white balance, bilinear demosaic,
+//! denoise, CCM, tone and sRGB encoding.
+
+use isp_core::demosaic::Method;
+use isp_core::dpc::{Defect, DpcConfig};
+use isp_core::frame::RawFrame;
+use isp_core::lsc::LensShading;
+use isp_core::pipeline::IspConfig;
+use isp_core::tone::Tone;
+use isp_core::CfaPattern;
+
+/// A raw frame and everything the reference needs to know about it.
+#[derive(Debug, Clone)]
+pub struct Frame {
+    /// See the pipeline docs.
+    pub data: Vec<u16>,
+    /// See the pipeline docs.
+    pub w: usize,
+    /// See the pipeline docs.
+    pub h: usize,
+    /// See the pipeline docs.
+    pub stride: usize,
+    /// See the pipeline docs.
+    pub bits: u8,
+    /// See the pipeline docs.
+    pub pattern: CfaPattern,
+    /// See the pipeline docs.
+    pub black: [u16; 4],
+    /// See the pipeline docs.
+    pub white: u16,
+}
+
+impl Frame {
+    /// The frame as isp-core sees it.
+    pub fn raw(&self) -> RawFrame<'_> {
+        RawFrame::new(
+            &self.data,
+            self.w,
+            self.h,
+            self.stride,
+            self.bits,
+            self.pattern,
+            self.black,
+            self.white,
+        )
+        .unwrap()
+    }
+
+    /// The sample at `(x, y)`.
+    pub fn at(&self, x: usize, y: usize) -> u16 {
+        self.data[y * self.stride + x]
+    }
+
+    /// The CFA colour index at `(x, y)`.
+    pub fn colour(&self, x: usize, y: usize) -> usize {
+        self.pattern.colour_at(x, y).index()
+    }
+}
+
+/// Mirror without repeating the edge, folding until inside.
+/// Mirror without repeating the edge.
+pub fn mirror(mut i: i64, n: usize) -> usize {
+    let n = n as i64;
+    if n == 1 {
+        return 0;
+    }
+    loop {
+        if i < 0 {
+            i = -i;
+        } else if i >= n {
+            i = 2 * (n - 1) - i;
+        } else {
+            return i as usize;
+        }
+    }
+}
+
+/// Settings in a form the reference reads directly.
+#[derive(Debug, Clone)]
+pub struct Settings {
+    /// See the pipeline docs.
+    pub defects: Vec<Defect>,
+    /// See the pipeline docs.
+    pub threshold: Option<u16>,
+    /// See the pipeline docs.
+    pub grid: Option<(usize, usize, Vec<u16>)>,
+    /// See the pipeline docs.
+    pub gain: f32,
+    /// See the pipeline docs.
+    pub wb: [f32; 3],
+    /// See the pipeline docs.
+    pub denoise: f32,
+    /// See the pipeline docs.
+    pub ccm: [[f32; 3]; 3],
+    /// See the pipeline docs.
+    pub tone: Tone,
+    /// See the pipeline docs.
+    pub method: Method,
+}
+
+impl Settings {
+    /// The same settings as an isp-core configuration.
+    pub fn config(&self) -> IspConfig<'_> {
+        IspConfig {
+            dpc: DpcConfig {
+                static_defects: &self.defects,
+                dynamic_threshold: self.threshold,
+            },
+            lsc: self
+                .grid
+                .as_ref()
+                .map(|(gw, gh, g)| LensShading::new(*gw, *gh, g).unwrap()),
+            gain: self.gain,
+            wb_gains: self.wb,
+            demosaic: self.method,
+            denoise: self.denoise,
+            ccm: self.ccm,
+            tone: self.tone,
+        }
+    }
+
+    /// Every stage off.
+    pub fn plain() -> Self {
+        Self {
+            defects: vec![],
+            threshold: None,
+            grid: None,
+            gain: 1.0,
+            wb: [1.0; 3],
+            denoise: 0.0,
+            ccm: isp_core::pipeline::IDENTITY,
+            tone: Tone::default(),
+            method: Method::Bilinear,
+        }
+    }
+}
+
+fn dpc_reference(f: &Frame, s: &Settings) -> Vec<u16> {
+    let listed = |x: usize, y: usize| {
+        s.defects
+            .iter()
+            .any(|d| d.x as usize == x && d.y as usize == y)
+    };
+    let mut out = vec![0u16; f.w * f.h];
+    for y in 0..f.h {
+        for x in 0..f.w {
+            let mut n: Vec<u16> = Vec::new();
+            for dy in [-2i64, 0, 2] {
+                for dx in [-2i64, 0, 2] {
+                    if dx == 0 && dy == 0 {
+                        continue;
+                    }
+                    // Off the frame: the mirror image about the pixel, if that is on it.
+                    let about = |i: usize, d: i64, n: usize| {
+                        [i as i64 + d, i as i64 - d]
+                            .into_iter()
+                            .find(|v| *v >= 0 && *v < n as i64)
+                            .map(|v| v as usize)
+                    };
+                    let (Some(nx), Some(ny)) = (about(x, dx, f.w), about(y, dy, f.h)) else {
+                        continue;
+                    };
+                    if (nx, ny) != (x, y) && !listed(nx, ny) {
+                        n.push(f.at(nx, ny));
+                    }
+                }
+            }
+            n.sort();
+            let median = || {
+                let k = n.len();
+                if k % 2 == 1 {
+                    n[k / 2]
+                } else {
+                    (n[k / 2 - 1] as u32 + n[k / 2] as u32).div_ceil(2) as u16
+                }
+            };
+            let v = f.at(x, y);
+            out[y * f.w + x] = if listed(x, y) {
+                if n.is_empty() {
+                    v
+                } else {
+                    median()
+                }
+            } else if let (Some(t), true) = (s.threshold, n.len() >= 3) {
+                let k = n.len();
+                let outlier =
+                    v as i64 > n[k - 2] as i64 + t as i64 || (v as i64) + (t as i64) < n[1] as i64;
+                if outlier {
+                    median()
+                } else {
+                    v
+                }
+            } else {
+                v
+            };
+        }
+    }
+    out
+}
+
+fn lsc_reference(s: &Settings, x: usize, y: usize, w: usize, h: usize) -> f64 {
+    let Some((gw, gh, g)) = &s.grid else {
+        return 1.0;
+    };
+    let coord = |i: usize, n: usize, nodes: usize| -> (usize, f64) {
+        if n == 1 {
+            return (0, 0.0);
+        }
+        let t = i as f64 * (nodes - 1) as f64 / (n - 1) as f64;
+        let k = (t.floor() as usize).min(nodes - 2);
+        (k, t - k as f64)
+    };
+    let (gx, fx) = coord(x, w, *gw);
+    let (gy, fy) = coord(y, h, *gh);
+    let p = (y % 2) * 2 + x % 2;
+    let node = |i: usize, j: usize| g[(j * gw + i) * 4 + p] as f64 / 4096.0;
+    (node(gx, gy) * (1.0 - fx) + node(gx + 1, gy) * fx) * (1.0 - fy)
+        + (node(gx, gy + 1) * (1.0 - fx) + node(gx + 1, gy + 1) * fx) * fy
+}
+
+/// Bilinear from the definition: each missing colour is the mean of that colour's pixels in the
+/// (mirrored) 3x3 window, or along the line for 1-pixel frames.
+fn bilinear_reference(m: &[f64], f: &Frame) -> Vec<[f64; 3]> {
+    let (w, h) = (f.w, f.h);
+    let mut out = vec![[0.0; 3]; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let own = f.colour(x, y);
+            let mut sum = [0.0; 3];
+            let mut n = [0.0; 3];
+            if w == 1 || h == 1 {
+                for (dx, dy) in [(-1i64, 0i64), (1, 0), (0, -1), (0, 1)] {
+                    let (nx, ny) = (x as i64 + dx, y as i64 + dy);
+                    if nx >= 0 && ny >= 0 && (nx as usize) < w && (ny as usize) < h {
+                        let c = f.colour(nx as usize, ny as usize);
+                        sum[c] += m[ny as usize * w + nx as usize];
+                        n[c] += 1.0;
+                    }
+                }
+            } else {
+                for dy in -1i64..=1 {
+                    for dx in -1i64..=1 {
+                        let (nx, ny) = (mirror(x as i64 + dx, w), mirror(y as i64 + dy, h));
+                        let c = f
+                            .pattern
+                            .colour_at(x.wrapping_add(dx as usize), y.wrapping_add(dy as usize))
+                            .index();
+                        // The mirrored pixel has the colour the CFA puts at the unmirrored spot.
+                        assert_eq!(c, f.colour(nx, ny));
+                        sum[c] += m[ny * w + nx];
+                        n[c] += 1.0;
+                    }
+                }
+            }
+            for c in 0..3 {
+                out[y * w + x][c] = if c == own || n[c] == 0.0 {
+                    m[y * w + x]
+                } else {
+                    sum[c] / n[c]
+                };
+            }
+        }
+    }
+    out
+}
+
+fn denoise_reference(rgb: &[[f64; 3]], w: usize, h: usize, t: f64) -> Vec<[f64; 3]> {
+    if t == 0.0 {
+        return rgb.to_vec();
+    }
+    let mut out = vec![[0.0; 3]; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let p = rgb[y * w + x];
+            let (mut sum, mut wsum) = ([0.0; 3], 0.0);
+            for dy in -1i64..=1 {
+                for dx in -1i64..=1 {
+                    let q = rgb[mirror(y as i64 + dy, h) * w + mirror(x as i64 + dx, w)];
+                    let d: f64 = (0..3).map(|c| (q[c] - p[c]).abs()).sum();
+                    let spatial =
+                        [1.0, 2.0, 1.0][(dx + 1) as usize] * [1.0, 2.0, 1.0][(dy + 1) as usize];
+                    let wgt = spatial * (1.0 - d / t).max(0.0);
+                    wsum += wgt;
+                    for c in 0..3 {
+                        sum[c] += wgt * q[c];
+                    }
+                }
+            }
+            out[y * w + x] = sum.map(|v| v / wsum);
+        }
+    }
+    out
+}
+
+fn tone_reference(tone: &Tone, rgb: [f64; 3]) -> [f64; 3] {
+    let s = tone.saturation as f64;
+    let yl = 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
+    let sat = rgb.map(|c| (yl + s * (c - yl)).clamp(0.0, 1.0));
+    let k = tone.contrast as f64;
+    let p = 0.18;
+    sat.map(|x| {
+        let c = if x <= p {
+            p * (x / p).powf(k)
+        } else {
+            1.0 - (1.0 - p) * ((1.0 - x) / (1.0 - p)).powf(k)
+        };
+        let pts = tone.curve.points();
+        let v = if pts.is_empty() {
+            c
+        } else if c <= pts[0][0] as f64 {
+            pts[0][1] as f64
+        } else if c >= pts[pts.len() - 1][0] as f64 {
+            pts[pts.len() - 1][1] as f64
+        } else {
+            let i = pts.iter().position(|q| c <= q[0] as f64).unwrap();
+            let (a, b) = (pts[i - 1], pts[i]);
+            let t = (c - a[0] as f64) / (b[0] as f64 - a[0] as f64);
+            a[1] as f64 + t * (b[1] as f64 - a[1] as f64)
+        };
+        v.clamp(0.0, 1.0)
+    })
+}
+
+fn srgb_reference(x: f64) -> f64 {
+    if x <= 0.0031308 {
+        12.92 * x
+    } else {
+        1.055 * x.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// The whole documented float semantics: encoded values in [0, 1] before rounding.
+pub fn reference(f: &Frame, s: &Settings) -> Vec<[f64; 3]> {
+    let raw = dpc_reference(f, s);
+    let white = f.white as f64;
+    let mut m = vec![0.0; f.w * f.h];
+    for y in 0..f.h {
+        for x in 0..f.w {
+            let black = f.black[(y % 2) * 2 + x % 2] as f64;
+            let d = (raw[y * f.w + x] as f64 - black).max(0.0);
+            let mut v = (lsc_reference(s, x, y, f.w, f.h) * d / (white - black)).clamp(0.0, 1.0);
+            v = (s.gain as f64 * v).min(1.0);
+            v = (s.wb[f.colour(x, y)] as f64 * v).min(1.0);
+            m[y * f.w + x] = v;
+        }
+    }
+    let rgb = bilinear_reference(&m, f);
+    let rgb = denoise_reference(&rgb, f.w, f.h, s.denoise as f64);
+    rgb.iter()
+        .map(|p| {
+            let lin: [f64; 3] = std::array::from_fn(|i| {
+                (0..3)
+                    .map(|j| s.ccm[i][j] as f64 * p[j])
+                    .sum::<f64>()
+                    .clamp(0.0, 1.0)
+            });
+            tone_reference(&s.tone, lin).map(srgb_reference)
+        })
+        .collect()
+}
