@@ -3,12 +3,15 @@
 //! The raw-to-sRGB pipeline a camera runs, for firmware: `#![no_std]`, no heap, no panics on any
 //! input. Every size and parameter is checked and answered with an [`IspError`].
 //!
-//! Built so far: the Bayer [`CfaPattern`] type, checked views over caller memory ([`frame`]:
-//! mosaics, raw frames with their levels, RGB outputs), bilinear demosaicing with OpenCV-exact
-//! and reflect-101 borders ([`demosaic`]), the exact sRGB transfer functions ([`srgb`]) and the
-//! colorimetry the colour stages need ([`colour`]). The stages (black level, defective pixels, lens shading, gain, white balance,
-//! demosaic, distortion correction, denoise, colour correction, tone, encoding) and the streaming
-//! pipeline follow in their own issues; ARCHITECTURE.md has the plan.
+//! The pipeline ([`pipeline`]) runs, in order: defective pixel correction ([`dpc`]), black
+//! level and normalisation, lens shading ([`lsc`]), ISO gain, white balance ([`wb`], with
+//! presets and automatic white balance), demosaicing ([`demosaic`]), denoise ([`denoise`]),
+//! colour correction ([`ccm`], interpolated by colour temperature from a calibration), tone
+//! ([`tone`]: saturation, contrast, curve, looks) and sRGB encoding ([`srgb`]). A float
+//! reference path and a fixed-point firmware path produce the same output to 1 LSB, streaming
+//! a band of rows at a time through line buffers in caller memory. [`colour`] holds the
+//! colorimetry the control code needs, [`frame`] the checked views over caller memory. Lens
+//! distortion correction is not built yet.
 //!
 //! ```
 //! use isp_core::{srgb, CfaPattern, CfaColour};
