@@ -260,17 +260,15 @@ pub fn process(image: &Image, args: &IspArgs) -> Result<(IspReport, Image), Stri
     c.tone = config.tone;
     steps.push(("tone", config.tone != Look::Neutral.tone(), c));
     steps.retain(|s| s.1);
+    // The report lists stages in pipeline order: demosaic before denoise, CCM and tone.
+    let demosaic_at = steps
+        .iter()
+        .position(|s| ["denoise", "colour matrix", "tone"].contains(&s.0))
+        .unwrap_or(steps.len());
     let mut stages = vec!["black level"];
-    for (name, _, _) in &steps[1..] {
-        let after_demosaic = ["denoise", "colour matrix", "tone"].contains(name);
-        if after_demosaic && !stages.contains(&demosaic.name()) {
-            stages.push(demosaic.name());
-        }
-        stages.push(name);
-    }
-    if !stages.contains(&demosaic.name()) {
-        stages.push(demosaic.name());
-    }
+    stages.extend(steps[1..demosaic_at].iter().map(|s| s.0));
+    stages.push(demosaic.name());
+    stages.extend(steps[demosaic_at..].iter().map(|s| s.0));
     stages.push("sRGB encode");
     let mut stage_ms = Vec::new();
     let mut previous = 0.0;
@@ -304,32 +302,30 @@ fn time_run<O: OutputSample + Default>(
     fixed: bool,
     out: &mut [O],
 ) -> Result<f64, String> {
+    // One short-lived value on the stack: the variants' sizes do not matter.
+    #[allow(clippy::large_enum_variant)]
+    enum Runner<'a> {
+        Float(FloatPipeline<'a>, Vec<f32>),
+        // Boxed: the fixed pipeline carries 32 KiB of tables.
+        Fixed(Box<FixedPipeline<'a>>, Vec<u16>),
+    }
     let (w, h) = (raw.mosaic().width(), raw.mosaic().height());
     let len = scratch_len(w).ok_or("frame too wide")?;
-    let mut best = f64::INFINITY;
-    let float_pipeline;
-    let fixed_pipeline;
     let bits = if O::BITS == 16 { 16 } else { 8 };
-    if fixed {
-        fixed_pipeline = Some(Box::new(
-            FixedPipeline::new(config, bits).map_err(|e| e.to_string())?,
-        ));
-        float_pipeline = None;
+    let mut runner = if fixed {
+        let p = FixedPipeline::new(config, bits).map_err(|e| e.to_string())?;
+        Runner::Fixed(Box::new(p), vec![0; len])
     } else {
-        float_pipeline = Some(FloatPipeline::new(config).map_err(|e| e.to_string())?);
-        fixed_pipeline = None;
-    }
-    let mut scratch_f = vec![0.0f32; if fixed { 0 } else { len }];
-    let mut scratch_u = vec![0u16; if fixed { len } else { 0 }];
+        let p = FloatPipeline::new(config).map_err(|e| e.to_string())?;
+        Runner::Float(p, vec![0.0; len])
+    };
+    let mut best = f64::INFINITY;
     for _ in 0..3 {
         let mut view = RgbViewMut::new(out, w, h, 3 * w).map_err(|e| e.to_string())?;
         let start = Instant::now();
-        if let Some(p) = &fixed_pipeline {
-            p.run(raw, 0..h, &mut scratch_u, &mut view)
-        } else if let Some(p) = &float_pipeline {
-            p.run(raw, 0..h, &mut scratch_f, &mut view)
-        } else {
-            Ok(())
+        match &mut runner {
+            Runner::Float(p, scratch) => p.run(raw, 0..h, scratch, &mut view),
+            Runner::Fixed(p, scratch) => p.run(raw, 0..h, scratch, &mut view),
         }
         .map_err(|e| e.to_string())?;
         best = best.min(start.elapsed().as_secs_f64() * 1e3);

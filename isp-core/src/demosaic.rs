@@ -118,8 +118,7 @@ pub fn demosaic<T: Sample>(
     input: &MosaicView<'_, T>,
     output: &mut RgbViewMut<'_, T>,
 ) -> Result<(), IspError> {
-    let (w, h) = same_size(input, output)?;
-    let _ = w;
+    let (_, h) = same_size(input, output)?;
     for y in 0..h {
         let rows: [&[T]; 5] =
             core::array::from_fn(|i| input.row(reflect(y as isize + i as isize - 2, h)));

@@ -12,21 +12,15 @@
 //! The float path computes exactly this. The fixed path works on `u16` (65535 is 1.0), range
 //! weights in Q12 (`4096 - D * (4096 / T)`, truncated) and rounds the division to nearest.
 
+use crate::demosaic::reflect;
+
 /// Spatial weights, row by row.
 const SPATIAL: [[u32; 3]; 3] = [[1, 2, 1], [2, 4, 2], [1, 2, 1]];
 
 /// Columns of the 3x3 window around `x` in a row `w` wide, reflected at the edges.
 #[inline]
 fn columns(x: usize, w: usize) -> [usize; 3] {
-    if x > 0 && x + 1 < w {
-        [x - 1, x, x + 1]
-    } else {
-        [
-            crate::demosaic::reflect(x as isize - 1, w),
-            x,
-            crate::demosaic::reflect(x as isize + 1, w),
-        ]
-    }
+    [reflect(x as isize - 1, w), x, reflect(x as isize + 1, w)]
 }
 
 /// Filters pixel `x` of the middle row of `rows` (interleaved RGB, rows above, at and below,

@@ -352,7 +352,7 @@ impl<'a> FixedPipeline<'a> {
                 .then(|| denoise::inverse_strength_q16(config.denoise)),
             ccm_q10: (ccm_q10 != identity_q10).then_some(ccm_q10),
             saturation_q14: (!config.tone.saturation_is_identity())
-                .then(|| config.tone.saturation_q14()),
+                .then(|| ccm::quantise(&config.tone.saturation_matrix(), SATURATION_FRAC_BITS)),
             tone_lut: (!config.tone.curve_is_identity()).then(|| ToneLut::new(&config.tone)),
             encode: EncodeLut::new(out_bits)?,
         })

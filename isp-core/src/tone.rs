@@ -234,23 +234,13 @@ impl Tone {
         }
     }
 
-    /// The saturation matrix in Q14 (row-major), for the fixed-point path.
-    pub fn saturation_q14(&self) -> [[i32; 3]; 3] {
+    /// Saturation as a matrix (row-major), `s I + (1 - s) [Y; Y; Y]`, for the fixed-point
+    /// path to quantise.
+    pub fn saturation_matrix(&self) -> [[f32; 3]; 3] {
         let s = self.saturation;
         core::array::from_fn(|i| {
-            core::array::from_fn(|j| {
-                let m = (1.0 - s) * LUMINANCE[j] + if i == j { s } else { 0.0 };
-                round_i32(m * 16384.0)
-            })
+            core::array::from_fn(|j| (1.0 - s) * LUMINANCE[j] + if i == j { s } else { 0.0 })
         })
-    }
-}
-
-fn round_i32(v: f32) -> i32 {
-    if v >= 0.0 {
-        (v + 0.5) as i32
-    } else {
-        (v - 0.5) as i32
     }
 }
 

@@ -11,11 +11,13 @@ use isp_core::tone::{Tone, ToneCurve};
 use isp_core::CfaPattern;
 use proptest::prelude::*;
 
-fn run_float(f: &Frame, s: &Settings, bands: &[usize]) -> Vec<u8> {
-    let raw = f.raw();
-    let config = s.config();
-    let pipeline = FloatPipeline::new(&config).unwrap();
-    let mut scratch = vec![f32::NAN; scratch_len(f.w).unwrap()];
+/// Runs `f` in bands of the given heights through `run_band(rows, output view)`, which holds
+/// the pipeline and its scratch; the 8-bit output of the whole frame.
+fn run_in_bands(
+    f: &Frame,
+    bands: &[usize],
+    mut run_band: impl FnMut(std::ops::Range<usize>, &mut RgbViewMut<'_, u8>),
+) -> Vec<u8> {
     let mut out = vec![0u8; f.w * f.h * 3];
     let mut y = 0;
     for &band in bands {
@@ -25,35 +27,30 @@ fn run_float(f: &Frame, s: &Settings, bands: &[usize]) -> Vec<u8> {
         let rows = y..(y + band).min(f.h);
         let chunk = &mut out[3 * f.w * rows.start..3 * f.w * rows.end];
         let mut view = RgbViewMut::new(chunk, f.w, rows.len(), 3 * f.w).unwrap();
-        pipeline
-            .run(&raw, rows.clone(), &mut scratch, &mut view)
-            .unwrap();
+        run_band(rows.clone(), &mut view);
         y = rows.end;
     }
     assert_eq!(y, f.h);
     out
 }
 
+fn run_float(f: &Frame, s: &Settings, bands: &[usize]) -> Vec<u8> {
+    let (raw, config) = (f.raw(), s.config());
+    let pipeline = FloatPipeline::new(&config).unwrap();
+    // NaN in the scratch: a row read before it is written would show.
+    let mut scratch = vec![f32::NAN; scratch_len(f.w).unwrap()];
+    run_in_bands(f, bands, |rows, view| {
+        pipeline.run(&raw, rows, &mut scratch, view).unwrap()
+    })
+}
+
 fn run_fixed(f: &Frame, s: &Settings, bands: &[usize]) -> Vec<u8> {
-    let raw = f.raw();
-    let config = s.config();
+    let (raw, config) = (f.raw(), s.config());
     let pipeline = FixedPipeline::new(&config, 8).unwrap();
     let mut scratch = vec![0xA5A5u16; scratch_len(f.w).unwrap()];
-    let mut out = vec![0u8; f.w * f.h * 3];
-    let mut y = 0;
-    for &band in bands {
-        if y == f.h {
-            break;
-        }
-        let rows = y..(y + band).min(f.h);
-        let chunk = &mut out[3 * f.w * rows.start..3 * f.w * rows.end];
-        let mut view = RgbViewMut::new(chunk, f.w, rows.len(), 3 * f.w).unwrap();
-        pipeline
-            .run(&raw, rows.clone(), &mut scratch, &mut view)
-            .unwrap();
-        y = rows.end;
-    }
-    out
+    run_in_bands(f, bands, |rows, view| {
+        pipeline.run(&raw, rows, &mut scratch, view).unwrap()
+    })
 }
 
 fn frame_strategy() -> impl Strategy<Value = Frame> {
