@@ -11,7 +11,8 @@
 //!
 //! scaled so the white-balanced neutral `(1, 1, 1)` has luminance 1: a grey in the scene comes
 //! out grey. Computed in `f64` once per frame; the fixed-point path holds the result in signed
-//! Q4.10 (`[-8, 8)`, as Raspberry Pi's PiSP does).
+//! Q4.16 (range `[-8, 8)` as in Raspberry Pi's PiSP, six more fractional bits: see
+//! [`crate::pipeline::CCM_FRAC_BITS`]).
 //!
 //! ```
 //! use isp_core::ccm::Calibration;
@@ -31,7 +32,7 @@ use crate::colour::{self, Mat3};
 use crate::wb::WbPreset;
 use crate::IspError;
 
-/// Largest coefficient magnitude of a pipeline CCM (exclusive), the range of signed Q4.10.
+/// Largest coefficient magnitude of a pipeline CCM (exclusive), the range of the fixed path's signed Q4.16.
 pub const MAX_COEFFICIENT: f32 = 8.0;
 
 /// Checks a pipeline CCM: finite, every coefficient in `[-8, 8)`.

@@ -13,7 +13,7 @@
 //!
 //! The float path computes exactly this; the fixed-point path reads contrast and curve from one
 //! table ([`ToneLut`]) interpolated between entries 16 input steps apart, and saturation as a
-//! Q14 matrix.
+//! Q16 matrix.
 
 use crate::math;
 use crate::IspError;
