@@ -11,16 +11,20 @@ use std::time::Instant;
 use clap::Args;
 use isp_core::colour::LINEAR_SRGB_TO_XYZ;
 use isp_core::demosaic::Method;
+use isp_core::distortion::{BrownConrady, LensDistortion};
 use isp_core::dpc::DpcConfig;
 use isp_core::frame::{RawFrame, RgbViewMut};
-use isp_core::pipeline::{scratch_len, FixedPipeline, FloatPipeline, IspConfig, OutputSample};
+use isp_core::lsc::LensShading;
+use isp_core::pipeline::{FixedPipeline, FloatPipeline, IspConfig, OutputSample};
 use isp_core::tone::Look;
-use isp_core::wb::{self, AwbEstimate, AwbMethod};
+use isp_core::wb::{self, AwbEstimate};
 use isp_core::CfaPattern;
 
 use crate::imageio::{self, Image};
+use crate::isp_options::{self as options, IspOptions, WhiteBalance};
 
-/// The options of `camsim isp`.
+/// The options of `camsim isp`. Every processing option can also come from `--config FILE`
+/// (see [`crate::isp_options`]); a flag given here wins over the file.
 #[derive(Args, Debug, Clone)]
 pub struct IspArgs {
     /// Input mosaic: single-channel 8- or 16-bit PNG or PGM.
@@ -29,62 +33,131 @@ pub struct IspArgs {
     /// Output sRGB image (.png or .ppm).
     #[arg(long)]
     pub output: PathBuf,
-    /// CFA pattern by the top-left 2x2 block: RGGB, BGGR, GRBG or GBRG.
-    #[arg(long, default_value = "RGGB")]
-    pub pattern: String,
-    /// Bits of raw data in each sample, 8..=16 (default: the file's depth).
+    /// TOML file of processing options, keyed by these flags' names (plus an `[lsc]` grid and
+    /// a `defects` list); flags given on the command line win.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// CFA pattern by the top-left 2x2 block: RGGB, BGGR, GRBG or GBRG [default: RGGB].
+    #[arg(long)]
+    pub pattern: Option<String>,
+    /// Bits of raw data in each sample, 8..=16 [default: the file's depth].
     #[arg(long)]
     pub bits: Option<u8>,
-    /// Black level: one value, or four (one per 2x2 CFA position, row by row), comma-separated.
-    #[arg(long, default_value = "0")]
-    pub black_level: String,
-    /// White level (default: 2^bits - 1).
+    /// Black level: one value, or four (one per 2x2 CFA position, row by row), comma-separated
+    /// [default: 0].
+    #[arg(long)]
+    pub black_level: Option<String>,
+    /// White level [default: 2^bits - 1].
     #[arg(long)]
     pub white_level: Option<u16>,
-    /// ISO / digital gain, [0, 64).
-    #[arg(long, default_value_t = 1.0)]
-    pub gain: f32,
-    /// White-balance gains R,G,B, each in [0, 16).
+    /// ISO / digital gain, [0, 64) [default: 1].
+    #[arg(long)]
+    pub gain: Option<f32>,
+    /// White-balance gains R,G,B, each in [0, 16) [default: 1,1,1].
     #[arg(long, conflicts_with = "awb")]
     pub wb: Option<String>,
     /// Automatic white balance: grey-world, white-patch, shades-of-grey or grey-edge.
     #[arg(long)]
     pub awb: Option<String>,
-    /// Colour matrix, camera RGB to linear sRGB: nine numbers row by row (default identity).
+    /// Colour matrix, camera RGB to linear sRGB: nine numbers row by row [default: identity].
     #[arg(long, allow_hyphen_values = true)]
     pub ccm: Option<String>,
-    /// Demosaicing: nearest, bilinear or mhc.
-    #[arg(long, default_value = "bilinear")]
-    pub demosaic: String,
-    /// Denoise strength in linear units, [0, 1]; 0 is off.
-    #[arg(long, default_value_t = 0.0)]
-    pub denoise: f32,
-    /// Dynamic defective-pixel threshold in raw units (default: off).
+    /// Demosaicing: nearest, bilinear or mhc [default: bilinear].
+    #[arg(long)]
+    pub demosaic: Option<String>,
+    /// Lens distortion to correct: k1,k2,p1,p2 or k1,k2,p1,p2,k3 (OpenCV's order) [default: off].
+    #[arg(long, allow_hyphen_values = true)]
+    pub distortion: Option<String>,
+    /// Camera matrix of the distortion: fx,fy,cx,cy in pixels [default: fx = fy = the larger
+    /// side, principal point at the centre].
+    #[arg(long, allow_hyphen_values = true)]
+    pub camera_matrix: Option<String>,
+    /// Denoise strength in linear units, [0, 1]; 0 is off [default: 0].
+    #[arg(long)]
+    pub denoise: Option<f32>,
+    /// Dynamic defective-pixel threshold in raw units [default: off].
     #[arg(long)]
     pub dpc_threshold: Option<u16>,
-    /// Look: neutral, vivid, muted, mono or high-contrast.
-    #[arg(long, default_value = "neutral")]
-    pub look: String,
-    /// float (the reference) or fixed (the firmware path).
-    #[arg(long, default_value = "float")]
-    pub path: String,
-    /// Output depth: 8 or 16.
-    #[arg(long, default_value_t = 8)]
-    pub out_bits: u8,
+    /// Look: neutral, vivid, muted, mono or high-contrast [default: neutral].
+    #[arg(long)]
+    pub look: Option<String>,
+    /// float (the reference) or fixed (the firmware path) [default: float].
+    #[arg(long)]
+    pub path: Option<String>,
+    /// Output depth: 8 or 16 [default: 8].
+    #[arg(long)]
+    pub out_bits: Option<u8>,
 }
 
-fn numbers(text: &str, what: &str, count: &[usize]) -> Result<Vec<f32>, String> {
-    let values: Result<Vec<f32>, _> = text.split(',').map(|s| s.trim().parse::<f32>()).collect();
-    match values {
-        Ok(v) if count.contains(&v.len()) && v.iter().all(|x| x.is_finite()) => Ok(v),
-        _ => Err(format!(
-            "{what} must be {} comma-separated numbers (got {text:?})",
-            count
-                .iter()
-                .map(|c| c.to_string())
-                .collect::<Vec<_>>()
-                .join(" or ")
-        )),
+impl IspArgs {
+    /// The processing options given as flags.
+    pub fn flag_options(&self) -> Result<IspOptions, String> {
+        let list = |text: &Option<String>, what: &str, counts: &[usize]| {
+            text.as_deref()
+                .map(|t| options::numbers(t, what, counts))
+                .transpose()
+        };
+        let white_balance = match (&self.wb, &self.awb) {
+            (Some(_), _) => list(&self.wb, "--wb", &[3])?
+                .map(|g| WhiteBalance::Gains([g[0] as f32, g[1] as f32, g[2] as f32])),
+            (None, Some(name)) => Some(WhiteBalance::Auto(options::awb(name, "--awb")?)),
+            (None, None) => None,
+        };
+        Ok(IspOptions {
+            pattern: self
+                .pattern
+                .as_deref()
+                .map(|t| options::pattern(t, "--pattern"))
+                .transpose()?,
+            bits: self.bits,
+            black_level: list(&self.black_level, "--black-level", &[1, 4])?
+                .map(|v| options::black_levels(v, "--black-level"))
+                .transpose()?,
+            white_level: self.white_level,
+            gain: self.gain,
+            white_balance,
+            ccm: list(&self.ccm, "--ccm", &[9])?
+                .map(|v| options::matrix(v, "--ccm"))
+                .transpose()?,
+            demosaic: self
+                .demosaic
+                .as_deref()
+                .map(|t| options::demosaic(t, "--demosaic"))
+                .transpose()?,
+            denoise: self.denoise,
+            dpc_threshold: self.dpc_threshold,
+            defects: None,
+            lsc: None,
+            look: self
+                .look
+                .as_deref()
+                .map(|t| options::look(t, "--look"))
+                .transpose()?,
+            fixed: self
+                .path
+                .as_deref()
+                .map(|t| options::path(t, "--path"))
+                .transpose()?,
+            out_bits: self
+                .out_bits
+                .map(|b| options::out_bits(b, "--out-bits"))
+                .transpose()?,
+            distortion: list(&self.distortion, "--distortion", &[4, 5])?
+                .map(|v| options::distortion(v, "--distortion"))
+                .transpose()?,
+            camera_matrix: list(&self.camera_matrix, "--camera-matrix", &[4])?
+                .map(|v| options::camera_matrix(v, "--camera-matrix"))
+                .transpose()?,
+        })
+    }
+
+    /// The options to run with: flags, then the config file, each `None` left to its default.
+    pub fn options(&self) -> Result<IspOptions, String> {
+        let flags = self.flag_options()?;
+        Ok(match &self.config {
+            Some(file) => flags.or(options::from_file(file)?),
+            None => flags,
+        })
     }
 }
 
@@ -97,6 +170,10 @@ pub struct IspReport {
     pub awb: Option<AwbEstimate>,
     /// Gains used.
     pub wb_gains: [f32; 3],
+    /// The distortion corrected and the input rows its window holds, if on.
+    pub distortion: Option<(LensDistortion, usize)>,
+    /// Whether the fixed-point path ran.
+    pub fixed: bool,
     /// Milliseconds per stage (ablation), in pipeline order.
     pub stage_ms: Vec<(&'static str, f64)>,
     /// Milliseconds of the whole pipeline.
@@ -105,7 +182,8 @@ pub struct IspReport {
 
 impl IspReport {
     /// The readable report.
-    pub fn to_text(&self, path: &str) -> String {
+    pub fn to_text(&self) -> String {
+        let path = if self.fixed { "fixed" } else { "float" };
         let mut out = format!("path: {path}\nstages: {}\n", self.stages.join(" -> "));
         if let Some(a) = &self.awb {
             out += &format!(
@@ -116,6 +194,13 @@ impl IspReport {
             out += &format!(
                 "white balance: gains R {:.4} G {:.4} B {:.4}\n",
                 self.wb_gains[0], self.wb_gains[1], self.wb_gains[2]
+            );
+        }
+        if let Some((lens, window)) = &self.distortion {
+            let [fx, fy, cx, cy] = lens.camera();
+            let [k1, k2, p1, p2, k3] = lens.model().to_opencv();
+            out += &format!(
+                "distortion: k1 {k1} k2 {k2} p1 {p1} p2 {p2} k3 {k3}, camera fx {fx} fy {fy} cx {cx} cy {cy}, window {window} rows\n"
             );
         }
         out += "time per stage (ms, by ablation):\n";
@@ -139,18 +224,14 @@ pub fn run(args: &IspArgs) -> Result<String, String> {
     }
     let (report, rgb) = process(&image, args)?;
     imageio::write(&args.output, &rgb)?;
-    Ok(report.to_text(&args.path) + &format!("wrote {}\n", args.output.display()))
+    Ok(report.to_text() + &format!("wrote {}\n", args.output.display()))
 }
 
 /// Processes a mosaic image with the options; returns the report and the RGB image.
 pub fn process(image: &Image, args: &IspArgs) -> Result<(IspReport, Image), String> {
-    let pattern: CfaPattern = args.pattern.parse().map_err(|_| {
-        format!(
-            "--pattern must be one of RGGB, BGGR, GRBG, GBRG (got {:?})",
-            args.pattern
-        )
-    })?;
-    let bits = args.bits.unwrap_or(image.bits);
+    let options = args.options()?;
+    let pattern = options.pattern.unwrap_or(CfaPattern::Rggb);
+    let bits = options.bits.unwrap_or(image.bits);
     if !(8..=16).contains(&bits) || bits > image.bits {
         return Err(format!(
             "--bits must be 8..=16 and at most the file's depth {} (got {bits})",
@@ -164,66 +245,66 @@ pub fn process(image: &Image, args: &IspArgs) -> Result<(IspReport, Image), Stri
             args.input.display()
         ));
     }
-    let black = numbers(&args.black_level, "--black-level", &[1, 4])?;
-    let black: [u16; 4] =
-        std::array::from_fn(|i| black[if black.len() == 1 { 0 } else { i }] as u16);
-    let white = args.white_level.unwrap_or(max);
+    let black = options.black_level.clone().unwrap_or(vec![0]);
+    let black: [u16; 4] = std::array::from_fn(|i| black[if black.len() == 1 { 0 } else { i }]);
+    let white = options.white_level.unwrap_or(max);
     let (w, h) = (image.width, image.height);
     let raw = RawFrame::new(&image.data, w, h, w, bits, pattern, black, white)
         .map_err(|e| format!("raw frame: {e} (check --bits, --black-level, --white-level)"))?;
 
     let mut awb = None;
-    let wb_gains = match (&args.wb, &args.awb) {
-        (Some(text), _) => {
-            let g = numbers(text, "--wb", &[3])?;
-            [g[0], g[1], g[2]]
-        }
-        (None, Some(name)) => {
-            let method = AwbMethod::from_name(name).map_err(|e| format!("--awb: {e}"))?;
+    let wb_gains = match options.white_balance {
+        Some(WhiteBalance::Gains(g)) => g,
+        Some(WhiteBalance::Auto(method)) => {
             let est = wb::estimate(&raw, method, &LINEAR_SRGB_TO_XYZ)
                 .map_err(|e| format!("--awb: {e}"))?;
             awb = Some(est);
             est.gains
         }
-        (None, None) => [1.0; 3],
+        None => [1.0; 3],
     };
-    let ccm = match &args.ccm {
-        Some(text) => {
-            let m = numbers(text, "--ccm", &[9])?;
-            std::array::from_fn(|i| std::array::from_fn(|j| m[3 * i + j]))
+    let demosaic = options.demosaic.unwrap_or(Method::Bilinear);
+    let defects = options.defects.clone().unwrap_or_default();
+    let lsc = options
+        .lsc
+        .as_ref()
+        .map(|g| LensShading::new(g.width, g.height, &g.gains_q12))
+        .transpose()
+        .map_err(|e| format!("lsc: {e}"))?;
+    let distortion = match options.distortion {
+        Some(d) => {
+            let [fx, fy, cx, cy] = options.camera_matrix.unwrap_or_else(|| {
+                let f = w.max(h) as f64;
+                [f, f, (w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0]
+            });
+            let model = BrownConrady::from_opencv(d).map_err(|e| format!("--distortion: {e}"))?;
+            Some(
+                LensDistortion::new(fx, fy, cx, cy, model)
+                    .map_err(|e| format!("--camera-matrix: {e}"))?,
+            )
         }
-        None => isp_core::pipeline::IDENTITY,
+        None if options.camera_matrix.is_some() => {
+            return Err("--camera-matrix needs --distortion (the coefficients to correct)".into())
+        }
+        None => None,
     };
-    let demosaic: Method = args.demosaic.parse().map_err(|_| {
-        format!(
-            "--demosaic must be one of nearest, bilinear, mhc (got {:?})",
-            args.demosaic
-        )
-    })?;
-    let look: Look = args.look.parse().map_err(|e| format!("--look: {e}"))?;
     let config = IspConfig {
         dpc: DpcConfig {
-            static_defects: &[],
-            dynamic_threshold: args.dpc_threshold,
+            static_defects: &defects,
+            dynamic_threshold: options.dpc_threshold,
         },
-        lsc: None,
-        gain: args.gain,
+        lsc,
+        gain: options.gain.unwrap_or(1.0),
         wb_gains,
         demosaic,
-        denoise: args.denoise,
-        ccm,
-        tone: look.tone(),
+        distortion,
+        denoise: options.denoise.unwrap_or(0.0),
+        ccm: options.ccm.unwrap_or(isp_core::pipeline::IDENTITY),
+        tone: options.look.unwrap_or(Look::Neutral).tone(),
     };
     config.validate().map_err(|e| e.to_string())?;
-    let fixed = match args.path.as_str() {
-        "float" => false,
-        "fixed" => true,
-        other => return Err(format!("--path must be float or fixed (got {other:?})")),
-    };
-    let out_bits = match args.out_bits {
-        b @ (8 | 16) => b,
-        b => return Err(format!("--out-bits must be 8 or 16 (got {b})")),
-    };
+    let fixed = options.fixed.unwrap_or(false);
+    let out_bits = options.out_bits.unwrap_or(8);
 
     let mut out = vec![0u16; w * h * 3];
     let total_ms = if out_bits == 8 {
@@ -237,43 +318,45 @@ pub fn process(image: &Image, args: &IspArgs) -> Result<(IspReport, Image), Stri
         time_run(&raw, &config, fixed, &mut out)?
     };
 
-    // Cumulative configurations, one stage more each; the base is what always runs.
+    // Cumulative configurations, one stage more each, in pipeline order; the base is what
+    // always runs. `true` marks the stages after demosaicing.
     let mut c = IspConfig {
         demosaic,
         ..IspConfig::default()
     };
-    let mut steps = vec![("black level+demosaic+encode", true, c)];
-    c.dpc.dynamic_threshold = config.dpc.dynamic_threshold;
-    steps.push(("defective pixels", config.dpc.is_active(), c));
+    let mut steps = vec![("black level+demosaic+encode", true, false, c)];
+    c.dpc = config.dpc;
+    steps.push(("defective pixels", config.dpc.is_active(), false, c));
+    c.lsc = config.lsc;
+    steps.push(("lens shading", config.lsc.is_some(), false, c));
     c.gain = config.gain;
-    steps.push(("gain", config.gain != 1.0, c));
+    steps.push(("gain", config.gain != 1.0, false, c));
     c.wb_gains = config.wb_gains;
-    steps.push(("white balance", config.wb_gains != [1.0; 3], c));
+    steps.push(("white balance", config.wb_gains != [1.0; 3], false, c));
+    c.distortion = config.distortion;
+    let lens_on = config.distortion.is_some_and(|d| !d.is_identity());
+    steps.push(("distortion correction", lens_on, true, c));
     c.denoise = config.denoise;
-    steps.push(("denoise", config.denoise > 0.0, c));
+    steps.push(("denoise", config.denoise > 0.0, true, c));
     c.ccm = config.ccm;
     steps.push((
         "colour matrix",
         config.ccm != isp_core::pipeline::IDENTITY,
+        true,
         c,
     ));
     c.tone = config.tone;
-    steps.push(("tone", config.tone != Look::Neutral.tone(), c));
+    steps.push(("tone", config.tone != Look::Neutral.tone(), true, c));
     steps.retain(|s| s.1);
-    // The report lists stages in pipeline order: demosaic before denoise, CCM and tone.
-    let demosaic_at = steps
-        .iter()
-        .position(|s| ["denoise", "colour matrix", "tone"].contains(&s.0))
-        .unwrap_or(steps.len());
     let mut stages = vec!["black level"];
-    stages.extend(steps[1..demosaic_at].iter().map(|s| s.0));
+    stages.extend(steps[1..].iter().filter(|s| !s.2).map(|s| s.0));
     stages.push(demosaic.name());
-    stages.extend(steps[demosaic_at..].iter().map(|s| s.0));
+    stages.extend(steps[1..].iter().filter(|s| s.2).map(|s| s.0));
     stages.push("sRGB encode");
     let mut stage_ms = Vec::new();
     let mut previous = 0.0;
     let mut scratch_out = vec![0u8; w * h * 3];
-    for (name, _, c) in &steps {
+    for (name, _, _, c) in &steps {
         let ms = time_run(&raw, c, fixed, &mut scratch_out)?;
         stage_ms.push((*name, (ms - previous).max(0.0)));
         previous = ms;
@@ -282,6 +365,10 @@ pub fn process(image: &Image, args: &IspArgs) -> Result<(IspReport, Image), Stri
         stages,
         awb,
         wb_gains,
+        distortion: distortion
+            .filter(|_| lens_on)
+            .map(|d| (d, d.window_rows(w, h))),
+        fixed,
         stage_ms,
         total_ms,
     };
@@ -310,7 +397,7 @@ fn time_run<O: OutputSample + Default>(
         Fixed(Box<FixedPipeline<'a>>, Vec<u16>),
     }
     let (w, h) = (raw.mosaic().width(), raw.mosaic().height());
-    let len = scratch_len(w).ok_or("frame too wide")?;
+    let len = config.scratch_len(w, h).ok_or("frame too large")?;
     let bits = if O::BITS == 16 { 16 } else { 8 };
     let mut runner = if fixed {
         let p = FixedPipeline::new(config, bits).map_err(|e| e.to_string())?;

@@ -11,3 +11,4 @@ pub mod demosaic_cmd;
 pub mod dof;
 pub mod imageio;
 pub mod isp_cmd;
+pub mod isp_options;

@@ -26,9 +26,10 @@ enum Command {
     Dof(DofArgs),
     /// Demosaic a single-channel 8- or 16-bit Bayer mosaic (PNG or PGM) into RGB of the same depth.
     Demosaic(DemosaicArgs),
-    /// Run the ISP (black level, defects, gain, white balance, demosaic, denoise, colour matrix,
-    /// tone, sRGB) on a raw mosaic (PNG or PGM) and write an sRGB image.
-    Isp(host_tracer::isp_cmd::IspArgs),
+    /// Run the ISP (defects, black level, lens shading, gain, white balance, demosaic, lens
+    /// distortion, denoise, colour matrix, tone, sRGB) on a raw mosaic (PNG or PGM) and write
+    /// an sRGB image; options from flags or a TOML file (--config).
+    Isp(Box<host_tracer::isp_cmd::IspArgs>),
     /// Measure accuracy against speed.
     Bench {
         #[command(subcommand)]

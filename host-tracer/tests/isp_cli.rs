@@ -106,10 +106,7 @@ fn isp_writes_an_srgb_image_and_reports_stages_and_times() {
         (vec!["--pattern", "RGBG"], "--pattern must be one of"),
         (vec!["--bits", "4"], "--bits must be 8..=16"),
         (vec!["--bits", "8"], "exceeds 8-bit range"),
-        (
-            vec!["--wb", "1,2"],
-            "--wb must be 3 comma-separated numbers",
-        ),
+        (vec!["--wb", "1,2"], "--wb must be 3 finite numbers"),
         (vec!["--ccm", "1,0,0"], "--ccm must be 9"),
         (vec!["--demosaic", "magic"], "--demosaic must be one of"),
         (vec!["--path", "double"], "--path must be float or fixed"),
@@ -125,5 +122,256 @@ fn isp_writes_an_srgb_image_and_reports_stages_and_times() {
         let (ok, _, stderr) = camsim(&full);
         assert!(!ok && stderr.contains(needle), "{args:?}: {stderr}");
     }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A gradient mosaic big enough for a lens to move things.
+fn ramp_mosaic(dir: &std::path::Path) -> std::path::PathBuf {
+    let (w, h) = (40, 30);
+    let data = (0..w * h)
+        .map(|i| 64 + ((i % w) * 80 + (i / w) * 15) as u16)
+        .collect();
+    let input = dir.join("ramp.pgm");
+    imageio::write(
+        &input,
+        &Image {
+            width: w,
+            height: h,
+            channels: 1,
+            bits: 16,
+            data,
+        },
+    )
+    .unwrap();
+    input
+}
+
+/// Options from a TOML file give the same image as the same options as flags; a flag wins
+/// over the file; distortion correction, lens shading and static defects are reported.
+#[test]
+fn isp_config_file_matches_flags_and_flags_win() {
+    let dir = std::env::temp_dir().join(format!("camsim-isp-config-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let input = ramp_mosaic(&dir);
+    let inp = input.to_str().unwrap();
+    let config = dir.join("isp.toml");
+    std::fs::write(
+        &config,
+        r#"# every processing option
+pattern = "GRBG"
+bits = 12
+black-level = [64, 64, 64, 64]
+white-level = 4095
+gain = 1.25
+wb = [1.8, 1.0, 1.4]
+ccm = [[1.5, -0.3, -0.2], [-0.2, 1.4, -0.2], [0.0, -0.4, 1.4]]
+demosaic = "mhc"
+denoise = 0.02
+dpc-threshold = 500
+look = "vivid"
+path = "fixed"
+out-bits = 8
+distortion = [-0.3, 0.05, 0.001, -0.002]
+camera-matrix = [36.0, 36.0, 19.5, 14.5]
+"#,
+    )
+    .unwrap();
+    let from_file = dir.join("file.png");
+    let (ok, stdout, stderr) = camsim(&[
+        "isp",
+        "--input",
+        inp,
+        "--output",
+        from_file.to_str().unwrap(),
+        "--config",
+        config.to_str().unwrap(),
+    ]);
+    assert!(ok, "{stderr}");
+    assert!(
+        stdout.contains("stages: black level -> defective pixels -> gain -> white balance -> mhc -> distortion correction -> denoise -> colour matrix -> tone -> sRGB encode"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("path: fixed"), "{stdout}");
+    assert!(stdout.contains("distortion: k1 -0.3 k2 0.05 p1 0.001 p2 -0.002 k3 0, camera fx 36 fy 36 cx 19.5 cy 14.5, window"), "{stdout}");
+    let flags = dir.join("flags.png");
+    let (ok, _, stderr) = camsim(&[
+        "isp",
+        "--input",
+        inp,
+        "--output",
+        flags.to_str().unwrap(),
+        "--pattern",
+        "GRBG",
+        "--bits",
+        "12",
+        "--black-level",
+        "64,64,64,64",
+        "--white-level",
+        "4095",
+        "--gain",
+        "1.25",
+        "--wb",
+        "1.8,1,1.4",
+        "--ccm",
+        "1.5,-0.3,-0.2,-0.2,1.4,-0.2,0,-0.4,1.4",
+        "--demosaic",
+        "mhc",
+        "--denoise",
+        "0.02",
+        "--dpc-threshold",
+        "500",
+        "--look",
+        "vivid",
+        "--path",
+        "fixed",
+        "--distortion",
+        "-0.3,0.05,0.001,-0.002",
+        "--camera-matrix",
+        "36,36,19.5,14.5",
+    ]);
+    assert!(ok, "{stderr}");
+    let a = imageio::read(&from_file).unwrap();
+    assert_eq!(a.data, imageio::read(&flags).unwrap().data);
+    // The lens really acted: without it the image differs.
+    let plain = dir.join("plain.png");
+    let (ok, _, stderr) = camsim(&[
+        "isp",
+        "--input",
+        inp,
+        "--output",
+        plain.to_str().unwrap(),
+        "--config",
+        config.to_str().unwrap(),
+        "--distortion",
+        "0,0,0,0",
+    ]);
+    assert!(ok, "{stderr}");
+    assert_ne!(a.data, imageio::read(&plain).unwrap().data);
+    // A flag wins over the file.
+    let float = dir.join("float.png");
+    let (ok, stdout, stderr) = camsim(&[
+        "isp",
+        "--input",
+        inp,
+        "--output",
+        float.to_str().unwrap(),
+        "--config",
+        config.to_str().unwrap(),
+        "--path",
+        "float",
+        "--look",
+        "neutral",
+    ]);
+    assert!(ok, "{stderr}");
+    assert!(
+        stdout.contains("path: float") && !stdout.contains("-> tone ->"),
+        "{stdout}"
+    );
+
+    // Shading grid and static defects, only in the file.
+    std::fs::write(
+        &config,
+        r#"bits = 12
+black-level = 64
+defects = [[3, 4], [10, 10]]
+
+[lsc]
+grid-width = 2
+grid-height = 2
+gains = [[1.5, 1.5, 1.5, 1.5], [1.0, 1.0, 1.0, 1.0], [1.0, 1.0, 1.0, 1.0], [1.5, 1.5, 1.5, 1.5]]
+"#,
+    )
+    .unwrap();
+    let (ok, stdout, stderr) = camsim(&[
+        "isp",
+        "--input",
+        inp,
+        "--output",
+        plain.to_str().unwrap(),
+        "--config",
+        config.to_str().unwrap(),
+    ]);
+    assert!(ok, "{stderr}");
+    assert!(
+        stdout.contains(
+            "stages: black level -> defective pixels -> lens shading -> bilinear -> sRGB encode"
+        ),
+        "{stdout}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Mistakes in a config file name the file, the line and the key, and say what is allowed.
+#[test]
+fn isp_config_errors_name_file_line_and_key() {
+    let dir = std::env::temp_dir().join(format!("camsim-isp-config-err-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let input = ramp_mosaic(&dir);
+    let config = dir.join("bad.toml");
+    for (text, needle) in [
+        (
+            "bits = 12\ngian = 2\n",
+            "bad.toml:2: gian: unknown key \"gian\"; known keys: pattern",
+        ),
+        (
+            "bits = 12\n\nwb = [1, 2]\n",
+            "bad.toml:3: wb: must be 3 finite numbers (got 2)",
+        ),
+        (
+            "pattern = \"RGBG\"\n",
+            "bad.toml:1: pattern: must be one of RGGB, BGGR, GRBG, GBRG",
+        ),
+        (
+            "bits = 12\nout-bits = 10\n",
+            "bad.toml:2: out-bits: must be 8 or 16 (got 10)",
+        ),
+        (
+            "wb = [1, 1, 1]\nawb = \"grey-world\"\n",
+            "awb: give wb or awb, not both",
+        ),
+        (
+            "distortion = [0.1, \"x\", 0, 0]\n",
+            "bad.toml:1: distortion: expected numbers",
+        ),
+        (
+            "defects = [[1, 2], [3]]\n",
+            "defects: entry 1: expected an [x, y] pair",
+        ),
+        (
+            "[lsc]\ngrid-width = 2\ngrid-height = 2\ngains = [[1, 1, 1, 1]]\n",
+            "lsc: gains: expected 2 x 2 = 4 nodes (got 1)",
+        ),
+        ("bits = \n", "bad.toml"),
+        (
+            "bits = 12\ncamera-matrix = [10, 10, 5, 5]\n",
+            "--camera-matrix needs --distortion",
+        ),
+        (
+            "bits = 12\ndistortion = [0.1, 0, 0, 0]\ncamera-matrix = [0, 10, 5, 5]\n",
+            "focal length",
+        ),
+    ] {
+        std::fs::write(&config, text).unwrap();
+        let (ok, _, stderr) = camsim(&[
+            "isp",
+            "--input",
+            input.to_str().unwrap(),
+            "--output",
+            dir.join("out.png").to_str().unwrap(),
+            "--config",
+            config.to_str().unwrap(),
+        ]);
+        assert!(!ok && stderr.contains(needle), "{text:?}: {stderr}");
+    }
+    let (ok, _, stderr) = camsim(&[
+        "isp",
+        "--input",
+        input.to_str().unwrap(),
+        "--output",
+        "x.png",
+        "--config",
+        dir.join("missing.toml").to_str().unwrap(),
+    ]);
+    assert!(!ok && stderr.contains("missing.toml"), "{stderr}");
     std::fs::remove_dir_all(&dir).ok();
 }

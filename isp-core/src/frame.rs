@@ -342,3 +342,63 @@ impl<'a, T: Copy> RgbViewMut<'a, T> {
         })
     }
 }
+
+/// A read-only interleaved RGB image: three samples per pixel, `stride` samples from one row
+/// to the next (at least `3 * width`).
+#[derive(Debug, Clone, Copy)]
+pub struct RgbView<'a, T> {
+    data: &'a [T],
+    width: usize,
+    height: usize,
+    stride: usize,
+}
+
+impl<'a, T: Copy> RgbView<'a, T> {
+    /// A checked view; `data` must hold `(height - 1) * stride + 3 * width` samples.
+    pub fn new(
+        data: &'a [T],
+        width: usize,
+        height: usize,
+        stride: usize,
+    ) -> Result<Self, IspError> {
+        let row_len = width.checked_mul(3).ok_or(IspError::InvalidParameter {
+            name: "rgb",
+            allowed: "a size that fits in memory",
+        })?;
+        check_plane(data.len(), row_len, height, stride, "rgb")?;
+        Ok(Self {
+            data,
+            width,
+            height,
+            stride,
+        })
+    }
+
+    /// Width in pixels.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Row `y` (exactly `3 * width` samples), or `None` below the image.
+    #[inline]
+    pub fn row(&self, y: usize) -> Option<&'a [T]> {
+        if y >= self.height {
+            return None;
+        }
+        let start = y * self.stride;
+        self.data.get(start..start + 3 * self.width)
+    }
+
+    /// Pixel `(x, y)` as `[r, g, b]`, or `None` outside.
+    pub fn get(&self, x: usize, y: usize) -> Option<[T; 3]> {
+        (x < self.width && y < self.height).then(|| {
+            let i = y * self.stride + 3 * x;
+            [self.data[i], self.data[i + 1], self.data[i + 2]]
+        })
+    }
+}

@@ -5,13 +5,14 @@
 //!
 //! The pipeline ([`pipeline`]) runs, in order: defective pixel correction ([`dpc`]), black
 //! level and normalisation, lens shading ([`lsc`]), ISO gain, white balance ([`wb`], with
-//! presets and automatic white balance), demosaicing ([`demosaic`]), denoise ([`denoise`]),
-//! colour correction ([`ccm`], interpolated by colour temperature from a calibration), tone
-//! ([`tone`]: saturation, contrast, curve, looks) and sRGB encoding ([`srgb`]). A float
-//! reference path and a fixed-point firmware path produce the same output to 1 LSB, streaming
-//! a band of rows at a time through line buffers in caller memory. [`colour`] holds the
-//! colorimetry the control code needs, [`frame`] the checked views over caller memory. Lens
-//! distortion correction is not built yet.
+//! presets and automatic white balance), demosaicing ([`demosaic`]), lens distortion
+//! correction ([`distortion`], OpenCV's `cv2.undistort` through optics-core's Brown-Conrady
+//! model), denoise ([`denoise`]), colour correction ([`ccm`], interpolated by colour
+//! temperature from a calibration), tone ([`tone`]: saturation, contrast, curve, looks) and sRGB
+//! encoding ([`srgb`]). A float reference path and a fixed-point firmware path produce the same
+//! output to 1 LSB, streaming a band of rows at a time through line buffers in caller memory.
+//! [`colour`] holds the colorimetry the control code needs, [`frame`] the checked views over
+//! caller memory.
 //!
 //! ```
 //! use isp_core::{srgb, CfaPattern, CfaColour};
@@ -28,6 +29,7 @@ mod cfa;
 pub mod colour;
 pub mod demosaic;
 pub mod denoise;
+pub mod distortion;
 pub mod dpc;
 pub mod frame;
 pub mod lsc;

@@ -12,6 +12,7 @@
 //! x    = min(gain * x, 1)                           ISO / digital gain
 //! x_c  = min(wb_c * x_c, 1)                         white balance per CFA colour, clipped at white
 //! rgb  = demosaic(x)                                reflect-101 borders, clamped to [0, 1]
+//! rgb  = undistort(rgb)                             lens distortion correction, off by default
 //! rgb  = denoise(rgb)                               identity at strength 0
 //! lin  = clamp(CCM * rgb, 0, 1)
 //! lin  = tone(lin)                                  saturation, contrast, curve (tone module)
@@ -19,19 +20,19 @@
 //! ```
 //!
 //! in `f32`, with `lsc` the bilinear interpolation of the Q4.12 grid (exactly `q / 4096` per
-//! node) and `srgb_oetf` the exact IEC 61966-2-1 curve ([`crate::srgb::encode`]). Each stage
-//! that is off (no defects, no grid, gain 1, gains 1, strength 0, identity matrix, neutral
-//! tone) is skipped, and skipping it changes nothing.
-//!
-//! Lens distortion correction, between demosaic and denoise in the ISP issue's list, is not
-//! built yet.
+//! node), `undistort` the 1/32-pixel bilinear resampling of [`crate::distortion`] (OpenCV's
+//! `cv2.undistort`, black where the lens saw nothing), and `srgb_oetf` the exact IEC 61966-2-1
+//! curve ([`crate::srgb::encode`]). Each stage that is off (no defects, no grid, gain 1, gains
+//! 1, no distortion, strength 0, identity matrix, neutral tone) is skipped, and skipping it
+//! changes nothing.
 //!
 //! # Fixed-point path
 //!
 //! [`FixedPipeline`] computes the same with integers: linear pixels are `u16` with 65535 = 1.0
 //! from black level subtraction on; normalisation by a Q16 reciprocal of `white - black`; the
 //! shading gain in Q4.16 interpolated from the Q4.12 grid; ISO gain and white-balance gains in
-//! unsigned Q4.10 (the gain up to 64 in Q6.10); demosaicing with the integer kernels; denoise
+//! unsigned Q4.10 (the gain up to 64 in Q6.10); demosaicing with the integer kernels;
+//! distortion correction with the same source positions and integer weights over 1024; denoise
 //! with Q12 range weights; the CCM in signed Q4.16; saturation as a Q16 matrix; contrast and
 //! curve through [`ToneLut`]; encoding through [`EncodeLut`]. Every step rounds to nearest and
 //! saturates. Its 8-bit output is within 1 LSB of the float path on at least 99.9% of pixels
@@ -46,6 +47,12 @@
 //! the widest stage. Every row is a function of the frame alone, never of what was computed
 //! before, so running a frame in bands of any height gives bit-identical output to running it
 //! whole; a band recomputes the few rows of context above and below it.
+//!
+//! Distortion correction is the one stage whose window is not fixed: an output row reads the
+//! input rows the lens bent it across ([`LensDistortion::window_rows`], a few for a mild lens,
+//! tens for strong barrel distortion on a large frame). With it on, the demosaiced ring holds
+//! that many rows and three more rows hold corrected RGB for denoise:
+//! [`IspConfig::scratch_len`] reports the total for a frame size, `(14 + 3 * window) * width`.
 //!
 //! ```
 //! use isp_core::frame::{RawFrame, RgbViewMut};
@@ -72,6 +79,7 @@
 use core::ops::Range;
 
 use crate::demosaic::{self, reflect, Method};
+use crate::distortion::LensDistortion;
 use crate::dpc::{self, DpcConfig};
 use crate::frame::{RawFrame, RgbViewMut, Sample};
 use crate::lsc::{LensShading, MAX_GRID_SIDE};
@@ -100,7 +108,8 @@ const RGB_ROWS: usize = 3;
 const CHUNK: usize = 256;
 
 /// Everything the pipeline does to a frame. [`IspConfig::default`] is the plainest pipeline:
-/// no defects, no shading grid, gains 1, bilinear, no denoise, identity CCM, neutral tone.
+/// no defects, no shading grid, gains 1, bilinear, no distortion correction, no denoise,
+/// identity CCM, neutral tone.
 #[derive(Debug, Clone, Copy)]
 pub struct IspConfig<'a> {
     /// Defective pixel correction.
@@ -113,6 +122,8 @@ pub struct IspConfig<'a> {
     pub wb_gains: [f32; 3],
     /// Demosaicing method.
     pub demosaic: Method,
+    /// Lens distortion correction, or `None`.
+    pub distortion: Option<LensDistortion>,
     /// Denoise strength, `[0, 1]` (linear units; 0 is off).
     pub denoise: f32,
     /// Camera RGB (white-balanced) to linear sRGB, coefficients in `[-8, 8)`.
@@ -132,6 +143,7 @@ impl Default for IspConfig<'_> {
             gain: 1.0,
             wb_gains: [1.0; 3],
             demosaic: Method::Bilinear,
+            distortion: None,
             denoise: 0.0,
             ccm: IDENTITY,
             tone: Tone::default(),
@@ -159,10 +171,40 @@ impl IspConfig<'_> {
         ccm::validate(&self.ccm)?;
         self.tone.validate()
     }
+
+    /// The distortion correction, if it is on and changes anything.
+    fn active_distortion(&self) -> Option<&LensDistortion> {
+        self.distortion.as_ref().filter(|d| !d.is_identity())
+    }
+
+    /// Scratch elements either path needs for a `width` x `height` frame with this
+    /// configuration: [`scratch_len`] without distortion correction, `(14 + 3 * window) *
+    /// width` with it (see the module docs). With distortion on, this evaluates the lens model
+    /// at every pixel once.
+    pub fn scratch_len(&self, width: usize, height: usize) -> Option<usize> {
+        engine_scratch_len(self.active_distortion(), width, height)
+    }
+}
+
+fn engine_scratch_len(
+    distortion: Option<&LensDistortion>,
+    width: usize,
+    height: usize,
+) -> Option<usize> {
+    let base = scratch_len(width)?;
+    match distortion {
+        None => Some(base),
+        Some(d) => d
+            .window_rows(width, height)
+            .checked_mul(3)?
+            .checked_mul(width)?
+            .checked_add(base),
+    }
 }
 
 /// Scratch elements (`f32` for the float path, `u16` for the fixed path) either path needs for
-/// a frame `width` pixels wide: `14 * width`.
+/// a frame `width` pixels wide without distortion correction: `14 * width`. With it, see
+/// [`IspConfig::scratch_len`].
 pub const fn scratch_len(width: usize) -> Option<usize> {
     width.checked_mul(MOSAIC_ROWS + 3 * RGB_ROWS)
 }
@@ -219,6 +261,8 @@ trait Path {
     type P: Sample;
     fn method(&self) -> Method;
     fn dpc(&self) -> &DpcConfig<'_>;
+    /// Distortion correction, if on.
+    fn distortion(&self) -> Option<&LensDistortion>;
     fn denoise_radius(&self) -> usize;
     /// Pointwise stages for pixels `x0..x0 + out.len()` of row `y`, from corrected raw samples.
     fn mosaic_span(
@@ -248,8 +292,14 @@ impl<'a> FloatPipeline<'a> {
         Ok(Self { config: *config })
     }
 
+    /// Scratch elements [`FloatPipeline::run`] needs for a `width` x `height` frame (see
+    /// [`IspConfig::scratch_len`]).
+    pub fn scratch_len(&self, width: usize, height: usize) -> Option<usize> {
+        self.config.scratch_len(width, height)
+    }
+
     /// Runs output rows `rows` of `raw` into `out` (exactly `rows.len()` rows of the frame's
-    /// width), with `scratch` of at least [`scratch_len`] elements.
+    /// width), with `scratch` of at least [`IspConfig::scratch_len`] elements.
     pub fn run<O: OutputSample>(
         &self,
         raw: &RawFrame<'_>,
@@ -270,6 +320,10 @@ impl Path for FloatPipeline<'_> {
 
     fn dpc(&self) -> &DpcConfig<'_> {
         &self.config.dpc
+    }
+
+    fn distortion(&self) -> Option<&LensDistortion> {
+        self.config.active_distortion()
     }
 
     fn denoise_radius(&self) -> usize {
@@ -327,6 +381,7 @@ pub struct FixedPipeline<'a> {
     dpc: DpcConfig<'a>,
     lsc: Option<LensShading<'a>>,
     method: Method,
+    distortion: Option<LensDistortion>,
     gain_q10: Option<u32>,
     wb_q10: Option<[u32; 3]>,
     inverse_denoise: Option<u64>,
@@ -350,6 +405,7 @@ impl<'a> FixedPipeline<'a> {
             dpc: config.dpc,
             lsc: config.lsc,
             method: config.demosaic,
+            distortion: config.active_distortion().copied(),
             gain_q10: (config.gain != 1.0).then(|| to_q10(config.gain)),
             wb_q10: (config.wb_gains != [1.0; 3]).then(|| config.wb_gains.map(to_q10)),
             inverse_denoise: (config.denoise > 0.0)
@@ -362,9 +418,15 @@ impl<'a> FixedPipeline<'a> {
         })
     }
 
+    /// Scratch elements [`FixedPipeline::run`] needs for a `width` x `height` frame (see
+    /// [`IspConfig::scratch_len`]).
+    pub fn scratch_len(&self, width: usize, height: usize) -> Option<usize> {
+        engine_scratch_len(self.distortion.as_ref(), width, height)
+    }
+
     /// Runs output rows `rows` of `raw` into `out` (exactly `rows.len()` rows of the frame's
     /// width, samples of the depth given to [`FixedPipeline::new`]), with `scratch` of at least
-    /// [`scratch_len`] elements.
+    /// [`IspConfig::scratch_len`] elements.
     pub fn run<O: OutputSample>(
         &self,
         raw: &RawFrame<'_>,
@@ -396,6 +458,10 @@ impl Path for FixedPipeline<'_> {
 
     fn dpc(&self) -> &DpcConfig<'_> {
         &self.dpc
+    }
+
+    fn distortion(&self) -> Option<&LensDistortion> {
+        self.distortion.as_ref()
     }
 
     fn denoise_radius(&self) -> usize {
@@ -457,6 +523,107 @@ impl Path for FixedPipeline<'_> {
     }
 }
 
+/// Rows `first..first + len` of one stage are held in a ring of `slots` rows, row `r` in slot
+/// `r % slots`: a sliding window, so rows shared by consecutive requests are kept.
+#[derive(Debug, Clone, Copy, Default)]
+struct RowWindow {
+    first: usize,
+    len: usize,
+}
+
+impl RowWindow {
+    /// Makes rows `lo..=hi` (at most `slots` of them) held; returns the rows the caller must
+    /// now compute, below and above the rows kept.
+    fn request(&mut self, lo: usize, hi: usize, slots: usize) -> [Range<usize>; 2] {
+        let (held_lo, held_end) = (self.first, self.first + self.len);
+        if self.len > 0 && lo >= held_lo && hi < held_end {
+            return [0..0, 0..0];
+        }
+        let touching = self.len > 0 && lo <= held_end && hi + 1 >= held_lo;
+        let (mut a, mut b) = if touching {
+            (lo.min(held_lo), (hi + 1).max(held_end))
+        } else {
+            (lo, hi + 1)
+        };
+        if b - a > slots {
+            // Keep the held rows nearest the request, on the side it came from.
+            if b == hi + 1 {
+                a = b - slots;
+            } else {
+                b = a + slots;
+            }
+        }
+        self.first = a;
+        self.len = b - a;
+        if touching {
+            [a..held_lo.clamp(a, b), held_end.clamp(a, b)..b]
+        } else {
+            [a..b, 0..0]
+        }
+    }
+}
+
+/// The ring buffers of one run and how to fill them.
+struct Engine<'s, 'p, A: Path> {
+    path: &'p A,
+    raw: &'p RawFrame<'p>,
+    mosaic_ring: &'s mut [A::P],
+    mosaic_tags: [usize; MOSAIC_ROWS],
+    /// Demosaiced RGB, `demosaic_slots` rows.
+    demosaic_ring: &'s mut [A::P],
+    demosaic_slots: usize,
+    demosaic_window: RowWindow,
+}
+
+impl<A: Path> Engine<'_, '_, A> {
+    /// Makes demosaiced rows `lo..=hi` held.
+    fn demosaic_rows(&mut self, lo: usize, hi: usize) -> Result<(), IspError> {
+        let mosaic = self.raw.mosaic();
+        let (w, h) = (mosaic.width(), mosaic.height());
+        for range in self.demosaic_window.request(lo, hi, self.demosaic_slots) {
+            for ry in range {
+                self.demosaic_row(ry, w, h)?;
+            }
+        }
+        Ok(())
+    }
+
+    fn demosaic_row(&mut self, ry: usize, w: usize, h: usize) -> Result<(), IspError> {
+        let raw = self.raw;
+        for dm in -2..=2isize {
+            let my = reflect(ry as isize + dm, h);
+            let slot = my % MOSAIC_ROWS;
+            if self.mosaic_tags[slot] == my {
+                continue;
+            }
+            let dst = &mut self.mosaic_ring[slot * w..(slot + 1) * w];
+            let mut corrected = [0u16; CHUNK];
+            for x0 in (0..w).step_by(CHUNK) {
+                let n = CHUNK.min(w - x0);
+                dpc::correct_span(raw, self.path.dpc(), my, x0, &mut corrected[..n]);
+                self.path
+                    .mosaic_span(raw, my, x0, &corrected[..n], &mut dst[x0..x0 + n]);
+            }
+            self.mosaic_tags[slot] = my;
+        }
+        let ring: &[A::P] = self.mosaic_ring;
+        let source: [&[A::P]; 5] = core::array::from_fn(|i| {
+            let my = reflect(ry as isize + i as isize - 2, h);
+            let slot = my % MOSAIC_ROWS;
+            &ring[slot * w..(slot + 1) * w]
+        });
+        let slot = ry % self.demosaic_slots;
+        demosaic::row(
+            self.path.method(),
+            source,
+            ry,
+            h,
+            raw.mosaic().pattern(),
+            &mut self.demosaic_ring[slot * 3 * w..(slot + 1) * 3 * w],
+        )
+    }
+}
+
 /// The streaming engine both paths share; see the module docs.
 fn run_rows<A: Path, O: OutputSample>(
     path: &A,
@@ -479,63 +646,77 @@ fn run_rows<A: Path, O: OutputSample>(
             allowed: "the frame's width and exactly as many rows as requested",
         });
     }
-    let needed = scratch_len(w).ok_or(IspError::InvalidParameter {
+    let too_wide = IspError::InvalidParameter {
         name: "width",
         allowed: "a size that fits in memory",
-    })?;
-    if scratch.len() < needed {
+    };
+    let base = scratch_len(w).ok_or(too_wide)?;
+    if scratch.len() < base {
         return Err(IspError::BufferTooSmall {
-            needed,
+            needed: base,
             provided: scratch.len(),
         });
     }
+    let distortion = path.distortion();
+    let provided = scratch.len();
     let (mosaic_ring, rest) = scratch.split_at_mut(MOSAIC_ROWS * w);
-    let rgb_ring = &mut rest[..RGB_ROWS * 3 * w];
-    let mut mosaic_tags = [usize::MAX; MOSAIC_ROWS];
-    let mut rgb_tags = [usize::MAX; RGB_ROWS];
-    let method = path.method();
+    // Without distortion correction the demosaiced ring is denoise's window; with it, a ring
+    // of corrected rows is, and the demosaiced ring takes all the scratch left.
+    let (window_ring, rest) = rest.split_at_mut(RGB_ROWS * 3 * w);
+    let (demosaic_ring, demosaic_slots, corrected_ring): (_, _, &mut [A::P]) = match distortion {
+        None => (window_ring, RGB_ROWS, &mut []),
+        Some(_) => {
+            let slots = rest.len() / (3 * w);
+            (rest, slots, window_ring)
+        }
+    };
+    let mut engine = Engine {
+        path,
+        raw,
+        mosaic_ring,
+        mosaic_tags: [usize::MAX; MOSAIC_ROWS],
+        demosaic_ring,
+        demosaic_slots,
+        demosaic_window: RowWindow::default(),
+    };
+    let mut corrected_window = RowWindow::default();
     let radius = path.denoise_radius() as isize;
-    let pattern = mosaic.pattern();
 
     for y in rows.clone() {
-        for dy in -radius..=radius {
-            let ry = reflect(y as isize + dy, h);
-            if rgb_tags[ry % RGB_ROWS] == ry {
-                continue;
-            }
-            for dm in -2..=2isize {
-                let my = reflect(ry as isize + dm, h);
-                let slot = my % MOSAIC_ROWS;
-                if mosaic_tags[slot] == my {
-                    continue;
+        let taps = (-radius..=radius).map(|dy| reflect(y as isize + dy, h));
+        let (lo, hi) = taps.fold((usize::MAX, 0), |(lo, hi), r| (lo.min(r), hi.max(r)));
+        match distortion {
+            None => engine.demosaic_rows(lo, hi)?,
+            Some(lens) => {
+                for range in corrected_window.request(lo, hi, RGB_ROWS) {
+                    for v in range {
+                        let slot = v % RGB_ROWS;
+                        let dst = &mut corrected_ring[slot * 3 * w..(slot + 1) * 3 * w];
+                        let Some(source) = lens.source_rows(v, w, h) else {
+                            dst.fill(A::P::default());
+                            continue;
+                        };
+                        let (s0, s1) = (*source.start(), *source.end());
+                        if s1 - s0 + 1 > engine.demosaic_slots {
+                            return Err(IspError::BufferTooSmall {
+                                needed: engine_scratch_len(Some(lens), w, h).ok_or(too_wide)?,
+                                provided,
+                            });
+                        }
+                        engine.demosaic_rows(s0, s1)?;
+                        let ring: &[A::P] = engine.demosaic_ring;
+                        let slots = engine.demosaic_slots;
+                        let row = |ry: usize| &ring[(ry % slots) * 3 * w..(ry % slots + 1) * 3 * w];
+                        lens.correct_row(v, w, h, row, dst);
+                    }
                 }
-                let dst = &mut mosaic_ring[slot * w..(slot + 1) * w];
-                let mut corrected = [0u16; CHUNK];
-                for x0 in (0..w).step_by(CHUNK) {
-                    let n = CHUNK.min(w - x0);
-                    dpc::correct_span(raw, path.dpc(), my, x0, &mut corrected[..n]);
-                    path.mosaic_span(raw, my, x0, &corrected[..n], &mut dst[x0..x0 + n]);
-                }
-                mosaic_tags[slot] = my;
             }
-            let ring: &[A::P] = mosaic_ring;
-            let source: [&[A::P]; 5] = core::array::from_fn(|i| {
-                let my = reflect(ry as isize + i as isize - 2, h);
-                let slot = my % MOSAIC_ROWS;
-                &ring[slot * w..(slot + 1) * w]
-            });
-            let slot = ry % RGB_ROWS;
-            demosaic::row(
-                method,
-                source,
-                ry,
-                h,
-                pattern,
-                &mut rgb_ring[slot * 3 * w..(slot + 1) * 3 * w],
-            )?;
-            rgb_tags[slot] = ry;
         }
-        let ring: &[A::P] = rgb_ring;
+        let ring: &[A::P] = if distortion.is_some() {
+            corrected_ring
+        } else {
+            engine.demosaic_ring
+        };
         let window: [&[A::P]; 3] = core::array::from_fn(|i| {
             let ry = reflect(y as isize + i as isize - 1, h);
             let slot = ry % RGB_ROWS;

@@ -1,10 +1,11 @@
-//! A full pipeline run, both paths, every stage on, makes no heap allocation: a counting global
+//! A full pipeline run, both paths, every stage on (distortion correction included), makes no heap allocation: a counting global
 //! allocator sees zero between the start and the end of the run.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use isp_core::demosaic::Method;
+use isp_core::distortion::{BrownConrady, LensDistortion};
 use isp_core::dpc::{Defect, DefectMap, DpcConfig};
 use isp_core::frame::{RawFrame, RgbViewMut};
 use isp_core::lsc::LensShading;
@@ -36,8 +37,22 @@ fn full_pipeline_run_allocates_nothing() {
     let (w, h) = (64, 48);
     let data: Vec<u16> = (0..w * h).map(|i| ((i * 7919) % 4096) as u16).collect();
     let gains = vec![5000u16; 5 * 4 * 4];
-    let mut scratch_f = vec![0.0f32; scratch_len(w).unwrap()];
-    let mut scratch_u = vec![0u16; scratch_len(w).unwrap()];
+    let lens = LensDistortion::new(
+        60.0,
+        60.0,
+        31.5,
+        23.5,
+        BrownConrady::from_opencv([-0.2, 0.03, 0.001, 0.0, 0.0]).unwrap(),
+    )
+    .unwrap();
+    let with_lens = IspConfig {
+        distortion: Some(lens),
+        ..IspConfig::default()
+    };
+    let len = with_lens.scratch_len(w, h).unwrap();
+    assert!(len > scratch_len(w).unwrap());
+    let mut scratch_f = vec![0.0f32; len];
+    let mut scratch_u = vec![0u16; len];
     let mut out8 = vec![0u8; w * h * 3];
     let mut out16 = vec![0u16; w * h * 3];
     let mut map: DefectMap<4> = DefectMap::new();
@@ -61,6 +76,7 @@ fn full_pipeline_run_allocates_nothing() {
         gain: 1.3,
         wb_gains: awb.gains,
         demosaic: Method::Mhc,
+        distortion: Some(lens),
         denoise: 0.05,
         ccm: [[1.5, -0.3, -0.2], [-0.2, 1.4, -0.2], [0.0, -0.4, 1.4]],
         tone: Tone {

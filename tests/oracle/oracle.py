@@ -157,6 +157,16 @@ def op_undistort_points(args, arrays):
     return {}, [out.reshape(-1, 2)]
 
 
+def op_undistort(args, arrays):
+    """args: fx, fy, cx, cy (pixels). arrays: image (H,W,3) u8 or u16, distortion [k1,k2,p1,p2,k3].
+    cv2.undistort with the camera matrix as the new one: the same frame, corrected."""
+    import cv2
+
+    img, dist = arrays
+    k = np.array([[args["fx"], 0.0, args["cx"]], [0.0, args["fy"], args["cy"]], [0.0, 0.0, 1.0]])
+    return {}, [cv2.undistort(np.ascontiguousarray(img), k, np.ascontiguousarray(dist, dtype=np.float64))]
+
+
 # OpenCV names Bayer codes by the second row of the 2x2 block (DESIGN.md): RGGB is BayerBG.
 BAYER_TO_RGB = {
     "RGGB": "COLOR_BayerBG2RGB",

@@ -1,9 +1,10 @@
 //! A slow, obviously-correct reference of isp-core's documented float semantics (the
 //! `pipeline` module docs), in f64, whole frame, one stage after another, written without
 //! looking at the pipeline's code paths: DPC, shading, gain, white balance, bilinear demosaic,
-//! denoise, CCM, tone and sRGB encoding.
+//! distortion correction, denoise, CCM, tone and sRGB encoding.
 
 use isp_core::demosaic::Method;
+use isp_core::distortion::LensDistortion;
 use isp_core::dpc::{Defect, DpcConfig};
 use isp_core::frame::RawFrame;
 use isp_core::lsc::LensShading;
@@ -98,6 +99,8 @@ pub struct Settings {
     pub tone: Tone,
     /// See the pipeline docs.
     pub method: Method,
+    /// See the pipeline docs.
+    pub distortion: Option<LensDistortion>,
 }
 
 impl Settings {
@@ -115,6 +118,7 @@ impl Settings {
             gain: self.gain,
             wb_gains: self.wb,
             demosaic: self.method,
+            distortion: self.distortion,
             denoise: self.denoise,
             ccm: self.ccm,
             tone: self.tone,
@@ -133,6 +137,7 @@ impl Settings {
             ccm: isp_core::pipeline::IDENTITY,
             tone: Tone::default(),
             method: Method::Bilinear,
+            distortion: None,
         }
     }
 }
@@ -266,6 +271,53 @@ fn bilinear_reference(m: &[f64], f: &Frame) -> Vec<[f64; 3]> {
     out
 }
 
+/// Distortion correction from its documented semantics (the `distortion` module docs): the
+/// source position of every output pixel through the Brown-Conrady formula, rounded to 1/32
+/// pixel, and the bilinear mix of the four pixels around it, black off the frame.
+fn undistort_reference(
+    rgb: &[[f64; 3]],
+    w: usize,
+    h: usize,
+    lens: &LensDistortion,
+) -> Vec<[f64; 3]> {
+    let [fx, fy, cx, cy] = lens.camera();
+    let [k1, k2, p1, p2, k3] = lens.model().to_opencv();
+    let mut out = vec![[0.0; 3]; w * h];
+    for v in 0..h {
+        for u in 0..w {
+            let (x, y) = ((u as f64 - cx) / fx, (v as f64 - cy) / fy);
+            let r2 = x * x + y * y;
+            let radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+            let xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x);
+            let yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y;
+            let qx = (32.0 * (fx * xd + cx)).round_ties_even();
+            let qy = (32.0 * (fy * yd + cy)).round_ties_even();
+            if !(qx.abs() < 2f64.powi(30) && qy.abs() < 2f64.powi(30)) {
+                continue;
+            }
+            let (sx, sy) = ((qx / 32.0).floor(), (qy / 32.0).floor());
+            let (ax, ay) = ((qx - 32.0 * sx) / 32.0, (qy - 32.0 * sy) / 32.0);
+            let mut px = [0.0; 3];
+            for (dx, dy, weight) in [
+                (0.0, 0.0, (1.0 - ax) * (1.0 - ay)),
+                (1.0, 0.0, ax * (1.0 - ay)),
+                (0.0, 1.0, (1.0 - ax) * ay),
+                (1.0, 1.0, ax * ay),
+            ] {
+                let (tx, ty) = (sx + dx, sy + dy);
+                if tx >= 0.0 && ty >= 0.0 && tx < w as f64 && ty < h as f64 {
+                    let p = rgb[ty as usize * w + tx as usize];
+                    for c in 0..3 {
+                        px[c] += weight * p[c];
+                    }
+                }
+            }
+            out[v * w + u] = px;
+        }
+    }
+    out
+}
+
 fn denoise_reference(rgb: &[[f64; 3]], w: usize, h: usize, t: f64) -> Vec<[f64; 3]> {
     if t == 0.0 {
         return rgb.to_vec();
@@ -347,6 +399,10 @@ pub fn reference(f: &Frame, s: &Settings) -> Vec<[f64; 3]> {
         }
     }
     let rgb = bilinear_reference(&m, f);
+    let rgb = match &s.distortion {
+        Some(lens) => undistort_reference(&rgb, f.w, f.h, lens),
+        None => rgb,
+    };
     let rgb = denoise_reference(&rgb, f.w, f.h, s.denoise as f64);
     rgb.iter()
         .map(|p| {

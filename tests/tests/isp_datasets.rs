@@ -10,8 +10,9 @@ use clap::Parser;
 use host_tracer::imageio::{self, Image};
 use host_tracer::isp_cmd::{process, IspArgs};
 use isp_core::demosaic::Method;
+use isp_core::distortion::{BrownConrady, LensDistortion};
 use isp_core::frame::{RawFrame, RgbViewMut};
-use isp_core::pipeline::{scratch_len, FixedPipeline, FloatPipeline, IspConfig};
+use isp_core::pipeline::{FixedPipeline, FloatPipeline, IspConfig};
 use isp_core::tone::Look;
 use isp_core::CfaPattern;
 
@@ -61,6 +62,12 @@ fn fixed_path_agrees_with_float_over_kodak_and_mcmaster() {
             gain: [1.0, 1.2, 0.9][i % 3],
             wb_gains: [[1.0; 3], [1.4, 1.0, 1.2], [0.9, 1.0, 1.6]][i % 3],
             demosaic: Method::ALL[i % 3],
+            // Every fifth image through a barrel lens with tangential terms.
+            distortion: (i % 5 == 0).then(|| {
+                let model = BrownConrady::from_opencv([-0.25, 0.06, 0.001, -0.002, 0.0]).unwrap();
+                let f = 0.9 * w as f64;
+                LensDistortion::new(f, f, w as f64 / 2.0, h as f64 / 2.0, model).unwrap()
+            }),
             denoise: [0.0, 0.02, 0.05][(i / 3) % 3],
             ccm: if i % 2 == 0 {
                 ccm
@@ -81,7 +88,7 @@ fn fixed_path_agrees_with_float_over_kodak_and_mcmaster() {
             .run(
                 &raw,
                 0..h,
-                &mut vec![0.0; scratch_len(w).unwrap()],
+                &mut vec![0.0; config.scratch_len(w, h).unwrap()],
                 &mut RgbViewMut::new(&mut float, w, h, 3 * w).unwrap(),
             )
             .unwrap();
@@ -90,7 +97,7 @@ fn fixed_path_agrees_with_float_over_kodak_and_mcmaster() {
             .run(
                 &raw,
                 0..h,
-                &mut vec![0; scratch_len(w).unwrap()],
+                &mut vec![0; config.scratch_len(w, h).unwrap()],
                 &mut RgbViewMut::new(&mut fixed, w, h, 3 * w).unwrap(),
             )
             .unwrap();

@@ -4,11 +4,13 @@
 
 use camsim_tests::isp_reference::{reference, Frame, Settings};
 use isp_core::demosaic::Method;
+use isp_core::distortion::LensDistortion;
 use isp_core::dpc::Defect;
 use isp_core::frame::RgbViewMut;
-use isp_core::pipeline::{scratch_len, FixedPipeline, FloatPipeline};
+use isp_core::pipeline::{FixedPipeline, FloatPipeline};
 use isp_core::tone::{Tone, ToneCurve};
 use isp_core::CfaPattern;
+use optics_core::distortion::BrownConrady;
 use proptest::prelude::*;
 
 /// Runs `f` in bands of the given heights through `run_band(rows, output view)`, which holds
@@ -38,7 +40,7 @@ fn run_float(f: &Frame, s: &Settings, bands: &[usize]) -> Vec<u8> {
     let (raw, config) = (f.raw(), s.config());
     let pipeline = FloatPipeline::new(&config).unwrap();
     // NaN in the scratch: a row read before it is written would show.
-    let mut scratch = vec![f32::NAN; scratch_len(f.w).unwrap()];
+    let mut scratch = vec![f32::NAN; pipeline.scratch_len(f.w, f.h).unwrap()];
     run_in_bands(f, bands, |rows, view| {
         pipeline.run(&raw, rows, &mut scratch, view).unwrap()
     })
@@ -47,7 +49,7 @@ fn run_float(f: &Frame, s: &Settings, bands: &[usize]) -> Vec<u8> {
 fn run_fixed(f: &Frame, s: &Settings, bands: &[usize]) -> Vec<u8> {
     let (raw, config) = (f.raw(), s.config());
     let pipeline = FixedPipeline::new(&config, 8).unwrap();
-    let mut scratch = vec![0xA5A5u16; scratch_len(f.w).unwrap()];
+    let mut scratch = vec![0xA5A5u16; pipeline.scratch_len(f.w, f.h).unwrap()];
     run_in_bands(f, bands, |rows, view| {
         pipeline.run(&raw, rows, &mut scratch, view).unwrap()
     })
@@ -81,6 +83,33 @@ fn frame_strategy() -> impl Strategy<Value = Frame> {
         )
 }
 
+/// A lens for a `w` x `h` frame: focal length about the frame's size, principal point near
+/// the centre, realistic coefficients (OpenCV's order), barrel or pincushion.
+fn lens_strategy(w: usize, h: usize) -> impl Strategy<Value = LensDistortion> {
+    let size = w.max(h) as f64;
+    (
+        (0.5f64..2.0, 0.9f64..1.1, 0.3f64..0.7, 0.3f64..0.7),
+        (
+            -0.5f64..0.5,
+            -0.2f64..0.2,
+            -0.01f64..0.01,
+            -0.01f64..0.01,
+            -0.1f64..0.1,
+        ),
+    )
+        .prop_map(move |((f, aspect, cx, cy), (k1, k2, p1, p2, k3))| {
+            let model = BrownConrady::from_opencv([k1, k2, p1, p2, k3]).unwrap();
+            LensDistortion::new(
+                f * size,
+                f * size * aspect,
+                cx * (w - 1) as f64,
+                cy * (h - 1) as f64,
+                model,
+            )
+            .unwrap()
+        })
+}
+
 fn settings_strategy(w: usize, h: usize) -> impl Strategy<Value = Settings> {
     (
         proptest::collection::vec((0..w as u16, 0..h as u16), 0..4),
@@ -111,6 +140,7 @@ fn settings_strategy(w: usize, h: usize) -> impl Strategy<Value = Settings> {
             prop_oneof![Just(1.0f32), 0.5f32..2.0],
             any::<bool>(),
             0usize..3,
+            proptest::option::of(lens_strategy(w, h)),
         ),
     )
         .prop_map(
@@ -123,7 +153,7 @@ fn settings_strategy(w: usize, h: usize) -> impl Strategy<Value = Settings> {
                 wb,
                 denoise,
                 ccm,
-                (sat, contrast, curve, method),
+                (sat, contrast, curve, method, distortion),
             )| {
                 let mut defects: Vec<Defect> =
                     defects.into_iter().map(|(x, y)| Defect { x, y }).collect();
@@ -149,6 +179,7 @@ fn settings_strategy(w: usize, h: usize) -> impl Strategy<Value = Settings> {
                         curve,
                     },
                     method: Method::ALL[method],
+                    distortion,
                 }
             },
         )
@@ -232,6 +263,16 @@ fn busy_settings() -> Settings {
         ccm: [[1.6, -0.4, -0.2], [-0.3, 1.5, -0.2], [0.0, -0.5, 1.5]],
         tone: isp_core::tone::Look::Vivid.tone(),
         method: Method::Bilinear,
+        distortion: Some(
+            LensDistortion::new(
+                4.0,
+                4.5,
+                2.0,
+                1.5,
+                BrownConrady::from_opencv([-0.2, 0.05, 0.01, -0.01, 0.0]).unwrap(),
+            )
+            .unwrap(),
+        ),
     }
 }
 
@@ -299,6 +340,19 @@ fn flat_field_stays_flat_through_every_stage() {
         s.wb = [1.9, 1.0, 1.4];
         variants.push(("demosaic", s));
     }
+    // Barrel correction samples inside the frame everywhere, so nothing turns black.
+    let mut s = base.clone();
+    s.distortion = Some(
+        LensDistortion::new(
+            9.0,
+            9.0,
+            4.0,
+            3.0,
+            BrownConrady::from_opencv([-0.2, 0.0, 0.0, 0.0, 0.0]).unwrap(),
+        )
+        .unwrap(),
+    );
+    variants.push(("distortion", s));
     let mut s = base.clone();
     s.denoise = 0.2;
     variants.push(("denoise", s));
@@ -362,6 +416,7 @@ fn saturated_patch_stays_neutral_after_white_balance() {
             s.method = method;
             s.defects.clear();
             s.threshold = None;
+            s.distortion = None;
             s.tone = Tone::default();
             for out in [run_float(&f, &s, &[h]), run_fixed(&f, &s, &[h])] {
                 for y in 9..11 {
