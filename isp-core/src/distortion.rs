@@ -62,6 +62,15 @@ const WEIGHT_BITS: u32 = 2 * SUBPIXEL_BITS;
 /// Largest source position magnitude in 1/32 pixel; beyond it a pixel reads black.
 const MAX_POSITION: f64 = (1u32 << 30) as f64;
 
+/// `x` rounded to the nearest integer, ties to even, for `|x| < 2^30`: adding and subtracting
+/// 1.5 * 2^52 leaves no fraction bits, so the FPU's default rounding does it (libm's `rint`
+/// does the same in software, several times slower).
+#[inline]
+fn round_half_even(x: f64) -> i32 {
+    const SHIFTER: f64 = 6_755_399_441_055_744.0;
+    ((x + SHIFTER) - SHIFTER) as i32
+}
+
 /// A lens's distortion and the camera matrix it was calibrated with (focal lengths and
 /// principal point in pixels of the frame being corrected).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -126,11 +135,11 @@ impl LensDistortion {
         let x = (u as f64 - self.cx) / self.fx;
         let y = (v as f64 - self.cy) / self.fy;
         let [xd, yd] = self.model.distort([x, y]).ok()?;
-        let qx = libm::rint(f64::from(SUBPIXELS) * (self.fx * xd + self.cx));
-        let qy = libm::rint(f64::from(SUBPIXELS) * (self.fy * yd + self.cy));
+        let qx = f64::from(SUBPIXELS) * (self.fx * xd + self.cx);
+        let qy = f64::from(SUBPIXELS) * (self.fy * yd + self.cy);
         // Also false for NaN.
         if qx.abs() < MAX_POSITION && qy.abs() < MAX_POSITION {
-            Some([qx as i32, qy as i32])
+            Some([round_half_even(qx), round_half_even(qy)])
         } else {
             None
         }
@@ -191,22 +200,20 @@ impl LensDistortion {
             };
             let (x0, y0) = (qx >> SUBPIXEL_BITS, qy >> SUBPIXEL_BITS);
             let (ax, ay) = (qx & FRACTION_MASK, qy & FRACTION_MASK);
-            let taps = [
-                (x0, y0, (SUBPIXELS - ax) * (SUBPIXELS - ay)),
-                (x0 + 1, y0, ax * (SUBPIXELS - ay)),
-                (x0, y0 + 1, (SUBPIXELS - ax) * ay),
-                (x0 + 1, y0 + 1, ax * ay),
-            ];
             let mut acc = [T::Acc::default(); 3];
-            for (xi, yi, weight) in taps {
-                let (xi, yi) = (i64::from(xi), i64::from(yi));
-                if xi < 0 || xi >= w || yi < 0 || yi >= h {
+            for (yi, wy) in [(y0, SUBPIXELS - ay), (y0 + 1, ay)] {
+                if yi < 0 || i64::from(yi) >= h {
                     continue;
                 }
                 let src = row(yi as usize);
-                let i = 3 * xi as usize;
-                for c in 0..3 {
-                    acc[c] = acc[c] + src[i + c].weighted(weight);
+                for (xi, wx) in [(x0, SUBPIXELS - ax), (x0 + 1, ax)] {
+                    if xi < 0 || i64::from(xi) >= w {
+                        continue;
+                    }
+                    let i = 3 * xi as usize;
+                    for c in 0..3 {
+                        acc[c] = acc[c] + src[i + c].weighted(wx * wy);
+                    }
                 }
             }
             for c in 0..3 {

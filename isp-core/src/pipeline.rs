@@ -706,7 +706,13 @@ fn run_rows<A: Path, O: OutputSample>(
                         engine.demosaic_rows(s0, s1)?;
                         let ring: &[A::P] = engine.demosaic_ring;
                         let slots = engine.demosaic_slots;
-                        let row = |ry: usize| &ring[(ry % slots) * 3 * w..(ry % slots + 1) * 3 * w];
+                        // Rows s0..=s1 fit the ring: their slots follow s0's, wrapping once.
+                        let first = s0 % slots;
+                        let row = |ry: usize| {
+                            let slot = first + (ry - s0);
+                            let slot = if slot >= slots { slot - slots } else { slot };
+                            &ring[slot * 3 * w..(slot + 1) * 3 * w]
+                        };
                         lens.correct_row(v, w, h, row, dst);
                     }
                 }
