@@ -12,3 +12,4 @@ pub mod dof;
 pub mod imageio;
 pub mod isp_cmd;
 pub mod isp_options;
+pub mod spectra;

@@ -87,6 +87,80 @@ pub fn apply_u16(m: &[[i32; 3]; 3], frac_bits: u32, rgb: [u16; 3]) -> [u16; 3] {
     })
 }
 
+/// The 3x3 matrix `M` that maps camera values to reference values with the least squared
+/// error, `min sum_i |M camera_i - reference_i|^2`: the linear colour-correction fit of Cheung
+/// et al. 2004 with 3 terms (colour-science's `matrix_colour_correction(camera, reference,
+/// method='Cheung 2004')`). Typically `camera` holds a chart's 24 patches as the camera saw
+/// them and `reference` their XYZ, giving a camera-to-XYZ matrix for [`Calibration`].
+///
+/// Solved through the normal equations in `f64` (`M = (R^T C) (C^T C)^-1`), with the columns
+/// scaled to unit norm first so the 3x3 solve stays well conditioned. Needs at least three
+/// patches, equal counts, finite values, and camera values that span three dimensions.
+///
+/// ```
+/// use isp_core::ccm::fit;
+/// // Patches seen through a known matrix are fitted back exactly.
+/// let m = [[0.6, 0.3, 0.1], [0.2, 0.7, 0.1], [0.0, 0.1, 0.9]];
+/// let camera = [[0.2, 0.1, 0.05], [0.5, 0.6, 0.2], [0.1, 0.3, 0.8], [0.9, 0.8, 0.7]];
+/// let reference: Vec<[f64; 3]> = camera
+///     .iter()
+///     .map(|c| core::array::from_fn(|i| (0..3).map(|j| m[i][j] * c[j]).sum()))
+///     .collect();
+/// let fitted = fit(&camera, &reference).unwrap();
+/// for i in 0..3 {
+///     for j in 0..3 {
+///         assert!((fitted[i][j] - m[i][j]).abs() < 1e-12);
+///     }
+/// }
+/// ```
+pub fn fit(camera: &[[f64; 3]], reference: &[[f64; 3]]) -> Result<Mat3, IspError> {
+    if camera.len() != reference.len() || camera.len() < 3 {
+        return Err(IspError::InvalidParameter {
+            name: "patches",
+            allowed: "at least 3, as many camera values as reference values",
+        });
+    }
+    if !camera
+        .iter()
+        .chain(reference)
+        .flatten()
+        .all(|v| v.is_finite())
+    {
+        return Err(IspError::InvalidParameter {
+            name: "patch values",
+            allowed: "finite numbers",
+        });
+    }
+    // Column scales: the fit of scaled columns, unscaled, is the same matrix.
+    let scale: [f64; 3] = core::array::from_fn(|j| {
+        let norm = libm::sqrt(camera.iter().map(|c| c[j] * c[j]).sum::<f64>());
+        if norm > 0.0 {
+            1.0 / norm
+        } else {
+            1.0
+        }
+    });
+    let mut gram = [[0.0; 3]; 3];
+    let mut cross = [[0.0; 3]; 3];
+    for (c, r) in camera.iter().zip(reference) {
+        let c: [f64; 3] = core::array::from_fn(|j| c[j] * scale[j]);
+        for i in 0..3 {
+            for j in 0..3 {
+                gram[i][j] += c[i] * c[j];
+                cross[i][j] += r[i] * c[j];
+            }
+        }
+    }
+    let inverse = colour::mat3_inverse(&gram).map_err(|_| IspError::InvalidParameter {
+        name: "camera patch values",
+        allowed: "values spanning three dimensions (not all on a plane through black)",
+    })?;
+    let m = colour::mat3_mul(&cross, &inverse);
+    Ok(core::array::from_fn(|i| {
+        core::array::from_fn(|j| m[i][j] * scale[j])
+    }))
+}
+
 /// A camera's colour calibration under one or two illuminants.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Calibration {

@@ -172,14 +172,15 @@ impl LensDistortion {
         (lo <= hi).then_some(lo..=hi)
     }
 
-    /// The most input rows any output row of a `width` x `height` frame reads (at least 1):
-    /// the line buffers the correction needs. Evaluates the model at every pixel once.
+    /// The most input rows any output row of a `width` x `height` frame reads (0 when the lens
+    /// shows nothing of the frame): the line buffers the correction needs. Evaluates the model
+    /// at every pixel once.
     pub fn window_rows(&self, width: usize, height: usize) -> usize {
         (0..height)
             .filter_map(|v| self.source_rows(v, width, height))
             .map(|r| r.end() - r.start() + 1)
             .max()
-            .unwrap_or(1)
+            .unwrap_or(0)
     }
 
     /// Output row `v` (`3 * width` samples) of a `width` x `height` frame, reading input row
@@ -199,6 +200,11 @@ impl LensDistortion {
                 continue;
             };
             let (x0, y0) = (qx >> SUBPIXEL_BITS, qy >> SUBPIXEL_BITS);
+            // Both columns off the frame: black, and no row is read (as in `source_rows`).
+            if x0 + 1 < 0 || i64::from(x0) >= w {
+                px.fill(T::default());
+                continue;
+            }
             let (ax, ay) = (qx & FRACTION_MASK, qy & FRACTION_MASK);
             let mut acc = [T::Acc::default(); 3];
             for (yi, wy) in [(y0, SUBPIXELS - ay), (y0 + 1, ay)] {

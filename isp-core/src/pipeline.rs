@@ -707,9 +707,10 @@ fn run_rows<A: Path, O: OutputSample>(
                         let ring: &[A::P] = engine.demosaic_ring;
                         let slots = engine.demosaic_slots;
                         // Rows s0..=s1 fit the ring: their slots follow s0's, wrapping once.
+                        // correct_row reads only those rows; the clamp keeps this total anyway.
                         let first = s0 % slots;
                         let row = |ry: usize| {
-                            let slot = first + (ry - s0);
+                            let slot = first + ry.saturating_sub(s0).min(slots - 1);
                             let slot = if slot >= slots { slot - slots } else { slot };
                             &ring[slot * 3 * w..(slot + 1) * 3 * w]
                         };

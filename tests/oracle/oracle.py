@@ -167,6 +167,14 @@ def op_undistort(args, arrays):
     return {}, [cv2.undistort(np.ascontiguousarray(img), k, np.ascontiguousarray(dist, dtype=np.float64))]
 
 
+def op_matrix_colour_correction(args, arrays):
+    """arrays: camera values M_T (N,3), reference values M_R (N,3). Cheung 2004, 3 terms."""
+    import colour
+
+    m_t, m_r = arrays
+    return {}, [colour.characterisation.matrix_colour_correction(m_t, m_r, method="Cheung 2004", terms=3)]
+
+
 # OpenCV names Bayer codes by the second row of the 2x2 block (DESIGN.md): RGGB is BayerBG.
 BAYER_TO_RGB = {
     "RGGB": "COLOR_BayerBG2RGB",
@@ -182,6 +190,14 @@ def op_bayer_bilinear(args, arrays):
 
     code = getattr(cv2, BAYER_TO_RGB[args["pattern"]])
     return {"code": BAYER_TO_RGB[args["pattern"]]}, [cv2.cvtColor(np.ascontiguousarray(arrays[0]), code)]
+
+
+def op_bayer_vng(args, arrays):
+    """args: pattern. arrays: mosaic (H,W) u8 (OpenCV's VNG is 8-bit only)."""
+    import cv2
+
+    code = getattr(cv2, BAYER_TO_RGB[args["pattern"]] + "_VNG")
+    return {}, [cv2.cvtColor(np.ascontiguousarray(arrays[0]), code)]
 
 
 def op_malvar2004(args, arrays):

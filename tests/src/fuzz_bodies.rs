@@ -93,3 +93,100 @@ pub fn distortion_inverse(data: &[u8]) {
         assert!((d[0] - x).abs() <= bound && (d[1] - y).abs() <= bound);
     }
 }
+
+/// The ISP pipeline on an arbitrary frame and configuration (sizes, levels, pattern, gains,
+/// demosaic method, denoise, a lens with any coefficients and camera matrix, band height):
+/// every constructor either refuses or the run succeeds with scratch of the size reported, in
+/// both paths, without panicking.
+pub fn isp_pipeline(data: &[u8]) {
+    use isp_core::demosaic::Method;
+    use isp_core::distortion::LensDistortion;
+    use isp_core::frame::{RawFrame, RgbViewMut};
+    use isp_core::pipeline::{FixedPipeline, FloatPipeline, IspConfig};
+    use isp_core::CfaPattern;
+
+    if data.len() < 12 {
+        return;
+    }
+    let (head, rest) = data.split_at(12);
+    let (w, h) = (1 + head[0] as usize % 16, 1 + head[1] as usize % 16);
+    let stride = w + head[2] as usize % 3;
+    let bits = 8 + head[3] % 9;
+    let pattern = CfaPattern::ALL[head[4] as usize % 4];
+    let max = (1u32 << bits) - 1;
+    let white = (u32::from(u16::from_le_bytes([head[5], head[6]])) % (max + 1)) as u16;
+    let black = [(head[7] as u16 * 16) % white.max(1); 4];
+    let method = Method::ALL[head[8] as usize % Method::ALL.len()];
+    let band = 1 + head[9] as usize % h;
+    let mut v = f64s::<12>(rest);
+    if head[11] & 1 == 0 {
+        // Mostly sane values (raw bit patterns, odd half the time, rarely pass the checks):
+        // gain and WB in [0, 4), denoise in [0, 0.25), a lens about the frame's size.
+        let unit = |x: f64| (x.to_bits() % 4096) as f64 / 4096.0;
+        let size = w.max(h) as f64;
+        v = [
+            4.0 * unit(v[0]),
+            4.0 * unit(v[1]),
+            0.25 * unit(v[2]),
+            size * (0.2 + 2.0 * unit(v[3])),
+            size * (0.2 + 2.0 * unit(v[4])),
+            w as f64 * unit(v[5]),
+            h as f64 * unit(v[6]),
+            unit(v[7]) - 0.5,
+            0.4 * unit(v[8]) - 0.2,
+            0.02 * unit(v[9]) - 0.01,
+            0.02 * unit(v[10]) - 0.01,
+            0.2 * unit(v[11]) - 0.1,
+        ];
+    }
+    let [gain, wb, denoise, fx, fy, cx, cy, k1, k2, p1, p2, k3] = v;
+    let samples: Vec<u16> = rest
+        .iter()
+        .skip(96)
+        .cycle()
+        .take((h - 1) * stride + w)
+        .map(|b| (*b as u16) << (bits - 8))
+        .collect();
+    if samples.len() < (h - 1) * stride + w {
+        return;
+    }
+    let Ok(raw) = RawFrame::new(&samples, w, h, stride, bits, pattern, black, white) else {
+        return;
+    };
+    let lens = BrownConrady::from_opencv([k1, k2, p1, p2, k3])
+        .ok()
+        .and_then(|m| LensDistortion::new(fx, fy, cx, cy, m).ok());
+    let config = IspConfig {
+        gain: gain as f32,
+        wb_gains: [wb as f32, 1.0, 1.0],
+        demosaic: method,
+        denoise: denoise as f32,
+        distortion: lens.filter(|_| head[10] & 1 == 1),
+        ..IspConfig::default()
+    };
+    let Some(len) = config.scratch_len(w, h) else {
+        return;
+    };
+    let mut out = vec![0u8; 3 * w * h];
+    if let Ok(p) = FloatPipeline::new(&config) {
+        let mut scratch = vec![0.0f32; len];
+        for start in (0..h).step_by(band) {
+            let rows = start..(start + band).min(h);
+            let chunk = &mut out[3 * w * rows.start..3 * w * rows.end];
+            let mut view = RgbViewMut::new(chunk, w, rows.len(), 3 * w).expect("a valid view");
+            p.run(&raw, rows, &mut scratch, &mut view)
+                .expect("a validated float pipeline runs with the scratch it reported");
+        }
+    }
+    if let Ok(p) = FixedPipeline::new(&config, 8) {
+        let mut scratch = vec![0u16; len];
+        let mut view = RgbViewMut::new(&mut out, w, h, 3 * w).expect("a valid view");
+        p.run(&raw, 0..h, &mut scratch, &mut view)
+            .expect("a validated fixed pipeline runs with the scratch it reported");
+        // Scratch one short is refused, never a panic.
+        if len > 0 {
+            let mut short = vec![0u16; len - 1];
+            assert!(p.run(&raw, 0..h, &mut short, &mut view).is_err());
+        }
+    }
+}

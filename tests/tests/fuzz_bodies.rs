@@ -19,12 +19,26 @@ proptest! {
     fn distortion(data in proptest::collection::vec(any::<u8>(), 0..64)) { distortion_inverse(&data); }
 }
 
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(1000))]
+
+    #[test]
+    fn isp(data in proptest::collection::vec(any::<u8>(), 12..400)) { isp_pipeline(&data); }
+}
+
 /// Realistic values, which random bytes rarely produce: the bodies must accept them.
 #[test]
 fn bodies_accept_realistic_values() {
     let bytes = |xs: &[f64]| xs.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
     optics_scalar(&bytes(&[50.0, 2.8, 0.03, 3000.0, 2000.0]));
     distortion_inverse(&bytes(&[-0.2, 0.05, 0.0, 0.001, -0.001, 0.4, -0.3]));
+    // A 12x10 RGGB 12-bit frame, gain 1.5, a barrel lens switched on.
+    let mut isp = vec![11, 9, 1, 4, 0, 0xff, 0x0f, 4, 2, 3, 1, 1];
+    isp.extend(bytes(&[
+        1.5, 1.8, 0.05, 12.0, 12.0, 5.5, 4.5, -0.2, 0.02, 0.001, 0.0, 0.0,
+    ]));
+    isp.extend((0..200u32).map(|i| (i * 37 % 256) as u8));
+    isp_pipeline(&isp);
     let mut mask = vec![8, 8, 100, 200, 255];
     mask.extend([255u8; 64]);
     bitmap_aperture(&mask);
@@ -45,6 +59,7 @@ fn fuzz_regressions_stay_fixed() {
             "optics_fixed" => optics_fixed,
             "bitmap_aperture" => bitmap_aperture,
             "distortion_inverse" => distortion_inverse,
+            "isp_pipeline" => isp_pipeline,
             other => panic!("{name}: no fuzz target named {other}"),
         };
         body(&data);
