@@ -113,6 +113,15 @@ fn check_plane(
     Ok(())
 }
 
+/// Checks that `len` samples hold an interleaved RGB image of `width` x `height` at `stride`.
+fn check_rgb_plane(len: usize, width: usize, height: usize, stride: usize) -> Result<(), IspError> {
+    let row_len = width.checked_mul(3).ok_or(IspError::InvalidParameter {
+        name: "rgb",
+        allowed: "a size that fits in memory",
+    })?;
+    check_plane(len, row_len, height, stride, "rgb")
+}
+
 /// Elements a plane of `rows` rows of `row_len` elements at `stride` needs, or an error.
 fn required_len(
     row_len: usize,
@@ -298,11 +307,7 @@ impl<'a, T: Copy> RgbViewMut<'a, T> {
         height: usize,
         stride: usize,
     ) -> Result<Self, IspError> {
-        let row_len = width.checked_mul(3).ok_or(IspError::InvalidParameter {
-            name: "rgb",
-            allowed: "a size that fits in memory",
-        })?;
-        check_plane(data.len(), row_len, height, stride, "rgb")?;
+        check_rgb_plane(data.len(), width, height, stride)?;
         Ok(Self {
             data,
             width,
@@ -361,11 +366,7 @@ impl<'a, T: Copy> RgbView<'a, T> {
         height: usize,
         stride: usize,
     ) -> Result<Self, IspError> {
-        let row_len = width.checked_mul(3).ok_or(IspError::InvalidParameter {
-            name: "rgb",
-            allowed: "a size that fits in memory",
-        })?;
-        check_plane(data.len(), row_len, height, stride, "rgb")?;
+        check_rgb_plane(data.len(), width, height, stride)?;
         Ok(Self {
             data,
             width,

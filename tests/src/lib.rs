@@ -7,6 +7,8 @@
 //! (`fuzz/`, nightly, `cargo fuzz run TARGET`) and, on random bytes, in the ordinary test suite
 //! (`tests/tests/fuzz_bodies.rs`), which keeps the targets compiling and exercised in CI.
 
+use std::path::{Path, PathBuf};
+
 pub mod fuzz_bodies;
 pub mod isp_reference;
 pub mod oracle;
@@ -28,4 +30,20 @@ pub fn first_mismatch(
         .zip(theirs)
         .position(|(a, b)| !within(*a, *b))
         .map(|i| (i, ours[i], theirs[i]))
+}
+
+/// The PNG images of a vendored data set (`data/NAME`), sorted; panics (a test setup error)
+/// when the folder is missing or empty.
+pub fn dataset(name: &str) -> Vec<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../data")
+        .join(name);
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "png"))
+        .collect();
+    files.sort();
+    assert!(!files.is_empty(), "no images in {}", dir.display());
+    files
 }

@@ -3,8 +3,7 @@
 //! within 2 everywhere; `camsim isp` reproduces the documented float semantics (the f64
 //! reference) within 1 LSB on a Kodak image.
 
-use std::path::{Path, PathBuf};
-
+use camsim_tests::dataset;
 use camsim_tests::isp_reference::{reference, Frame, Settings};
 use clap::Parser;
 use host_tracer::imageio::{self, Image};
@@ -18,20 +17,6 @@ use isp_core::CfaPattern;
 
 const BLACK: u16 = 64;
 const WHITE: u16 = 4095;
-
-fn dataset(name: &str) -> Vec<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../data")
-        .join(name);
-    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "png"))
-        .collect();
-    files.sort();
-    assert!(!files.is_empty(), "no images in {}", dir.display());
-    files
-}
 
 /// A 12-bit RGGB mosaic of an 8-bit RGB image: black 64, 255 maps to 64 + 255 * 15 = 3889.
 fn raw12(rgb: &Image) -> Vec<u16> {

@@ -6,26 +6,11 @@
 //! Kodak and stays within 0.5 dB of it on McMaster, and bilinear is below both. camsim's
 //! edge-aware variant does not exist, so there is nothing to compare with OpenCV's `_EA`.
 
-use std::path::{Path, PathBuf};
-
+use camsim_tests::dataset;
 use camsim_tests::oracle::{oracle_arrays, Array};
 use host_tracer::demosaic_cmd::{cpsnr, mosaic_from_rgb, Method};
 use host_tracer::imageio;
 use isp_core::CfaPattern;
-
-fn dataset(name: &str) -> Vec<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../data")
-        .join(name);
-    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "png"))
-        .collect();
-    files.sort();
-    assert!(!files.is_empty(), "no images in {}", dir.display());
-    files
-}
 
 /// Mean CPSNR over a set of VNG (through the oracle) and of camsim's bilinear and MHC.
 fn set_cpsnr(name: &str) -> Option<[f64; 3]> {
