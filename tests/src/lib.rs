@@ -12,6 +12,7 @@ use std::path::{Path, PathBuf};
 pub mod fuzz_bodies;
 pub mod isp_reference;
 pub mod oracle;
+pub mod strategies;
 
 /// Index of the first element of `ours` that differs from `theirs` by more than
 /// `rel * |theirs| + abs`, with both values; `None` when all agree (and the lengths match).

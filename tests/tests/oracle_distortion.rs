@@ -4,26 +4,15 @@
 
 use camsim_tests::first_mismatch;
 use camsim_tests::oracle::{oracle_arrays, Array};
+use camsim_tests::strategies::distortion_coefficients;
 use optics_core::distortion::BrownConrady;
 use proptest::prelude::*;
-
-/// Realistic coefficients: within these, the model is monotonic out to r = 0.6.
-fn coefficients() -> impl Strategy<Value = [f64; 5]> {
-    (
-        -0.5f64..0.5,
-        -0.2f64..0.2,
-        -0.01f64..0.01,
-        -0.01f64..0.01,
-        -0.1f64..0.1,
-    )
-        .prop_map(|(k1, k2, p1, p2, k3)| [k1, k2, p1, p2, k3])
-}
 
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(64))]
 
     #[test]
-    fn forward_and_inverse_match_opencv(d in coefficients(), polar in proptest::collection::vec((0.0f64..0.6, 0.0f64..std::f64::consts::TAU), 64)) {
+    fn forward_and_inverse_match_opencv(d in distortion_coefficients(), polar in proptest::collection::vec((0.0f64..0.6, 0.0f64..std::f64::consts::TAU), 64)) {
         let model = BrownConrady::from_opencv(d).unwrap();
         let ideal: Vec<[f64; 2]> = polar.iter().map(|(r, a)| [r * a.cos(), r * a.sin()]).collect();
         let flat = |p: &[[f64; 2]]| p.iter().flatten().copied().collect::<Vec<f64>>();

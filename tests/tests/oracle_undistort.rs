@@ -4,6 +4,7 @@
 //! on a Kodak image under a strong lens.
 
 use camsim_tests::oracle::{oracle_arrays, Array};
+use camsim_tests::strategies::lens;
 use host_tracer::imageio;
 use isp_core::distortion::LensDistortion;
 use isp_core::frame::{IntSample, RgbView, RgbViewMut};
@@ -39,31 +40,6 @@ fn worst(a: &[u32], b: &[u32]) -> (u32, usize) {
         .map(|(i, (x, y))| (x.abs_diff(*y), i))
         .max()
         .unwrap_or((0, 0))
-}
-
-fn lens(w: usize, h: usize) -> impl Strategy<Value = LensDistortion> {
-    let size = w.max(h) as f64;
-    (
-        (0.5f64..2.0, 0.9f64..1.1, 0.3f64..0.7, 0.3f64..0.7),
-        (
-            -0.5f64..0.5,
-            -0.2f64..0.2,
-            -0.01f64..0.01,
-            -0.01f64..0.01,
-            -0.1f64..0.1,
-        ),
-    )
-        .prop_map(move |((f, aspect, cx, cy), d)| {
-            let model = BrownConrady::from_opencv([d.0, d.1, d.2, d.3, d.4]).unwrap();
-            LensDistortion::new(
-                f * size,
-                f * size * aspect,
-                cx * (w - 1) as f64,
-                cy * (h - 1) as f64,
-                model,
-            )
-            .unwrap()
-        })
 }
 
 fn case(max: u32) -> impl Strategy<Value = (usize, usize, Vec<u32>, LensDistortion)> {

@@ -3,6 +3,7 @@
 //! against whole-frame runs.
 
 use camsim_tests::isp_reference::{reference, Frame, Settings};
+use camsim_tests::strategies::lens;
 use isp_core::demosaic::Method;
 use isp_core::distortion::LensDistortion;
 use isp_core::dpc::Defect;
@@ -83,33 +84,6 @@ fn frame_strategy() -> impl Strategy<Value = Frame> {
         )
 }
 
-/// A lens for a `w` x `h` frame: focal length about the frame's size, principal point near
-/// the centre, realistic coefficients (OpenCV's order), barrel or pincushion.
-fn lens_strategy(w: usize, h: usize) -> impl Strategy<Value = LensDistortion> {
-    let size = w.max(h) as f64;
-    (
-        (0.5f64..2.0, 0.9f64..1.1, 0.3f64..0.7, 0.3f64..0.7),
-        (
-            -0.5f64..0.5,
-            -0.2f64..0.2,
-            -0.01f64..0.01,
-            -0.01f64..0.01,
-            -0.1f64..0.1,
-        ),
-    )
-        .prop_map(move |((f, aspect, cx, cy), (k1, k2, p1, p2, k3))| {
-            let model = BrownConrady::from_opencv([k1, k2, p1, p2, k3]).unwrap();
-            LensDistortion::new(
-                f * size,
-                f * size * aspect,
-                cx * (w - 1) as f64,
-                cy * (h - 1) as f64,
-                model,
-            )
-            .unwrap()
-        })
-}
-
 fn settings_strategy(w: usize, h: usize) -> impl Strategy<Value = Settings> {
     (
         proptest::collection::vec((0..w as u16, 0..h as u16), 0..4),
@@ -140,7 +114,7 @@ fn settings_strategy(w: usize, h: usize) -> impl Strategy<Value = Settings> {
             prop_oneof![Just(1.0f32), 0.5f32..2.0],
             any::<bool>(),
             0usize..3,
-            proptest::option::of(lens_strategy(w, h)),
+            proptest::option::of(lens(w, h)),
         ),
     )
         .prop_map(
