@@ -30,6 +30,9 @@ enum Command {
     /// distortion, denoise, colour matrix, tone, sRGB) on a raw mosaic (PNG or PGM) and write
     /// an sRGB image; options from flags or a TOML file (--config).
     Isp(Box<host_tracer::isp_cmd::IspArgs>),
+    /// Render a scene (built-in cornell-box or demo, or a TOML file) with the path tracer to
+    /// linear RGB radiance (OpenEXR) and an sRGB preview.
+    Render(Box<host_tracer::render_cmd::RenderArgs>),
     /// Measure accuracy against speed.
     Bench {
         #[command(subcommand)]
@@ -175,6 +178,7 @@ fn main() -> ExitCode {
         Command::Dof(args) => dof(args),
         Command::Demosaic(args) => demosaic(args),
         Command::Isp(args) => host_tracer::isp_cmd::run(args),
+        Command::Render(args) => host_tracer::render_cmd::run(args),
         Command::Bench {
             what: BenchCommand::Demosaic(args),
         } => bench_demosaic(args),

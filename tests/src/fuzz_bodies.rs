@@ -190,3 +190,24 @@ pub fn isp_pipeline(data: &[u8]) {
         }
     }
 }
+
+/// Scene files: any text is a scene or an error naming the file and line (never a panic), and
+/// a scene that loads renders a tiny image of finite, non-negative radiance. Texts that name
+/// files (`obj`, `png`) are left out: reading arbitrary paths is not what this checks.
+pub fn scene_file(data: &[u8]) {
+    use host_tracer::tracer::render::{render, RenderSettings};
+    let text = String::from_utf8_lossy(data);
+    if text.contains("obj") || text.contains("png") {
+        return;
+    }
+    match host_tracer::tracer::scene_file::parse(&text, "fuzz.toml", std::path::Path::new(".")) {
+        Err(e) => assert!(e.starts_with("fuzz.toml"), "{e}"),
+        Ok(scene) => {
+            let mut s = RenderSettings::for_scene(&scene);
+            (s.width, s.height, s.spp, s.threads, s.progress) = (3, 2, 1, 1, false);
+            s.path.max_depth = s.path.max_depth.min(4);
+            let image = render(&scene, &s).expect("a loaded scene renders");
+            assert!(image.rgb.iter().all(|v| v.is_finite()), "{:?}", image.rgb);
+        }
+    }
+}

@@ -19,6 +19,95 @@ proptest! {
     fn distortion(data in proptest::collection::vec(any::<u8>(), 0..64)) { distortion_inverse(&data); }
 }
 
+/// Scene-like text: lines of `key = value` and table headers from the scene format's
+/// vocabulary, so the parser's deeper checks are reached, not only its syntax errors.
+fn scene_text() -> impl Strategy<Value = String> {
+    let key = prop::sample::select(vec![
+        "position",
+        "target",
+        "up",
+        "fov_deg",
+        "f_number",
+        "focus_distance",
+        "aperture_radius_mm",
+        "type",
+        "center",
+        "radius",
+        "corners",
+        "material",
+        "emission",
+        "motion",
+        "min",
+        "max",
+        "to_world",
+        "rgb",
+        "colorchecker",
+        "illuminant",
+        "luminance",
+        "width",
+        "height",
+        "spp",
+        "max_depth",
+        "shutter",
+        "chromatic_aberration",
+        "distortion",
+        "sensor_width_mm",
+    ]);
+    let value = prop::sample::select(vec![
+        "[0, 0, 5]",
+        "[0, 0, 0]",
+        "[0, 1, 0]",
+        "40",
+        "-1",
+        "0",
+        "1e30",
+        "nan",
+        "2.8",
+        "\"sphere\"",
+        "\"quad\"",
+        "\"box\"",
+        "\"m\"",
+        "{ rgb = [1, 1, 1] }",
+        "[[0,0,0],[1,0,0],[1,1,0],[0,1,0]]",
+        "[1, 1]",
+        "\"D65\"",
+        "\"dark skin\"",
+        "[0.1, 0.0, 0.0, 0.0]",
+        "[[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]",
+        "{ illuminant = \"A\", luminance = 1e38 }",
+        "[-1, -1, -1]",
+        "0.5",
+    ]);
+    let header = prop::sample::select(vec![
+        "[camera]",
+        "[[shape]]",
+        "[materials]",
+        "[film]",
+        "[environment]",
+    ]);
+    let line = prop_oneof![
+        (key, value).prop_map(|(k, v)| format!("{k} = {v}")),
+        header.prop_map(str::to_string),
+        Just("m = { rgb = [0.5, 0.5, 0.5] }".to_string()),
+    ];
+    proptest::collection::vec(line, 0..24).prop_map(|lines| {
+        format!(
+            "[camera]\nposition = [0, 0, 5]\ntarget = [0, 0, 0]\n{}",
+            lines.join("\n")
+        )
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(1000))]
+
+    #[test]
+    fn scene_bytes(data in proptest::collection::vec(any::<u8>(), 0..200)) { scene_file(&data); }
+
+    #[test]
+    fn scene_texts(text in scene_text()) { scene_file(text.as_bytes()); }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(1000))]
 
@@ -42,6 +131,8 @@ fn bodies_accept_realistic_values() {
     let mut mask = vec![8, 8, 100, 200, 255];
     mask.extend([255u8; 64]);
     bitmap_aperture(&mask);
+    scene_file(host_tracer::tracer::scene_file::BUILT_IN[0].1.as_bytes());
+    scene_file(host_tracer::tracer::scene_file::BUILT_IN[1].1.as_bytes());
 }
 
 /// Every input a fuzzer once crashed on, replayed through its target's body. Files in

@@ -1,0 +1,211 @@
+//! `camsim render`: renders a scene (built-in or TOML) to linear RGB radiance in OpenEXR and,
+//! optionally, an sRGB preview PNG; prints what it did and how fast.
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use crate::imageio::{self, Image};
+use crate::tracer::render::{render, RenderSettings, Rendered};
+use crate::tracer::scene::SceneDesc;
+use crate::tracer::scene_file;
+
+/// Arguments of `camsim render`.
+#[derive(Args, Debug, Default)]
+pub struct RenderArgs {
+    /// Built-in scene (cornell-box, demo) or a scene TOML file.
+    #[arg(long, default_value = "cornell-box")]
+    pub scene: String,
+    /// Image width in pixels (default: the scene's).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height in pixels (default: the scene's).
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Samples per pixel (default: the scene's).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Random seed; the same seed gives the same image at any thread count.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Worker threads (0: one per core).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Longest path in segments (Mitsuba's max_depth; default: the scene's).
+    #[arg(long)]
+    pub max_depth: Option<u32>,
+    /// Camera model: pinhole (no lens sample) or thinlens (needs an aperture).
+    #[arg(long, value_name = "pinhole|thinlens")]
+    pub camera: Option<String>,
+    /// Aperture radius in scene units (as Mitsuba's thinlens); implies --camera thinlens.
+    #[arg(long, value_name = "R", allow_hyphen_values = true)]
+    pub aperture_radius: Option<f32>,
+    /// Focus distance in scene units (default: the scene's, else the distance to the target).
+    #[arg(long, value_name = "D", allow_hyphen_values = true)]
+    pub focus_distance: Option<f32>,
+    /// Linear RGB radiance out, OpenEXR 32-bit float.
+    #[arg(long, value_name = "out.exr")]
+    pub linear: Option<PathBuf>,
+    /// sRGB preview out (8-bit PNG): radiance times 2^exposure, clipped, sRGB-encoded.
+    #[arg(long, value_name = "out.png")]
+    pub preview: Option<PathBuf>,
+    /// Exposure of the preview in stops.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub exposure: f32,
+    /// Print the report as one JSON object.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn positive(v: Option<f32>, what: &str) -> Result<Option<f32>, String> {
+    match v {
+        Some(x) if !(x.is_finite() && x > 0.0) => Err(format!("{what} must be > 0 (got {x})")),
+        v => Ok(v),
+    }
+}
+
+/// Applies the command line's overrides to the scene's camera and film.
+pub fn settings(args: &RenderArgs, scene: &mut SceneDesc) -> Result<RenderSettings, String> {
+    let cam = &mut scene.camera;
+    let radius = positive(args.aperture_radius, "--aperture-radius")?;
+    let focus = positive(args.focus_distance, "--focus-distance")?;
+    match args.camera.as_deref() {
+        None => {}
+        Some("pinhole") => {
+            if radius.is_some() {
+                return Err("--camera pinhole has no aperture: drop --aperture-radius".into());
+            }
+            cam.aperture_radius_mm = 0.0;
+        }
+        Some("thinlens") if radius.is_none() && cam.aperture_radius_mm == 0.0 => {
+            return Err(format!(
+                "--camera thinlens needs --aperture-radius: scene {:?} is a pinhole",
+                scene.name
+            ));
+        }
+        Some("thinlens") => {}
+        Some(other) => {
+            return Err(format!(
+                "--camera must be pinhole or thinlens (got {other:?})"
+            ))
+        }
+    }
+    if let Some(r) = radius {
+        cam.aperture_radius_mm = r / cam.units_per_mm;
+    }
+    if let Some(d) = focus {
+        cam.focus_distance = Some(d);
+    }
+    let mut s = RenderSettings::for_scene(scene);
+    s.width = args.width.unwrap_or(s.width);
+    s.height = args.height.unwrap_or(s.height);
+    s.spp = args.spp.unwrap_or(s.spp);
+    s.path.max_depth = args.max_depth.unwrap_or(s.path.max_depth);
+    s.seed = args.seed;
+    s.threads = args.threads;
+    let mut table = crate::tracer::scene::MaskTable::default();
+    scene.camera.rig(s.width, s.height, false, &mut table)?;
+    Ok(s)
+}
+
+/// The sRGB preview: radiance times `2^exposure`, clipped to [0, 1], sRGB-encoded to 8 bits.
+pub fn preview(image: &Rendered, exposure: f32) -> Image {
+    let k = exposure.exp2();
+    Image {
+        width: image.width as usize,
+        height: image.height as usize,
+        channels: 3,
+        bits: 8,
+        data: image
+            .rgb
+            .iter()
+            .map(|&v| (isp_core::srgb::encode(v * k) * 255.0).round() as u16)
+            .collect(),
+    }
+}
+
+/// Runs `camsim render`.
+pub fn run(args: &RenderArgs) -> Result<String, String> {
+    if args.linear.is_none() && args.preview.is_none() {
+        return Err("nothing to write: give --linear out.exr and/or --preview out.png".into());
+    }
+    if !args.exposure.is_finite() {
+        return Err(format!("--exposure must be finite (got {})", args.exposure));
+    }
+    let mut scene = scene_file::load(&args.scene)?;
+    let settings = settings(args, &mut scene)?;
+    let image = render(&scene, &settings)?;
+    if let Some(path) = &args.linear {
+        crate::exr::write_rgb(
+            path,
+            image.width as usize,
+            image.height as usize,
+            &image.rgb,
+        )?;
+    }
+    if let Some(path) = &args.preview {
+        imageio::write(path, &preview(&image, args.exposure))?;
+    }
+    let mut mean = [0.0f64; 3];
+    for px in image.rgb.chunks_exact(3) {
+        for c in 0..3 {
+            mean[c] += px[c] as f64;
+        }
+    }
+    let pixels = (image.width * image.height) as f64;
+    let mean = mean.map(|m| m / pixels);
+    let mode = if scene.is_spectral() {
+        "spectral"
+    } else {
+        "rgb"
+    };
+    let camera = if scene.camera.aperture_radius_mm > 0.0 {
+        "thinlens"
+    } else {
+        "pinhole"
+    };
+    if args.json {
+        let report = serde_json::json!({
+            "scene": scene.name,
+            "width": image.width,
+            "height": image.height,
+            "spp": settings.spp,
+            "max_depth": settings.path.max_depth,
+            "seed": settings.seed,
+            "threads": rayon_threads(settings.threads),
+            "camera": camera,
+            "mode": mode,
+            "render_s": image.elapsed.as_secs_f64(),
+            "prepare_s": image.prepare.as_secs_f64(),
+            "samples_per_s": image.samples_per_second(),
+            "mean_rgb": mean,
+        });
+        return Ok(report.to_string() + "\n");
+    }
+    Ok(format!(
+        "scene {} ({mode}, {camera}): {} x {} at {} spp, max depth {}, seed {}\n\
+         rendered in {:.2} s on {} threads ({:.2} Msamples/s; BVH and tables {:.1} ms)\n\
+         mean linear RGB {:.5} {:.5} {:.5}\n",
+        scene.name,
+        image.width,
+        image.height,
+        settings.spp,
+        settings.path.max_depth,
+        settings.seed,
+        image.elapsed.as_secs_f64(),
+        rayon_threads(settings.threads),
+        image.samples_per_second() / 1e6,
+        image.prepare.as_secs_f64() * 1e3,
+        mean[0],
+        mean[1],
+        mean[2]
+    ))
+}
+
+fn rayon_threads(requested: usize) -> usize {
+    if requested == 0 {
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    } else {
+        requested
+    }
+}

@@ -1,0 +1,271 @@
+//! Rendering an image: tiles of 16 x 16 pixels shared among threads (rayon), each pixel with
+//! its own random stream, so the result for a seed does not depend on the thread count; a
+//! one-pixel box filter (each sample lands in its own pixel); progress on stderr.
+
+use std::io::IsTerminal;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::{Duration, Instant};
+
+use rayon::prelude::*;
+
+use super::color::{band_rgb_channel, bands_to_linear_srgb, xyz_weights, Channels, BANDS};
+use super::integrator::{radiance, PathSettings};
+use super::sampling::Rng;
+use super::scene::{CameraRig, MaskTable, Scene, SceneDesc};
+
+/// What to render and how.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderSettings {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Seed: the same seed gives the same image.
+    pub seed: u64,
+    /// Worker threads (0: one per core).
+    pub threads: usize,
+    /// Path limits.
+    pub path: PathSettings,
+    /// Show a progress bar on stderr (when it is a terminal).
+    pub progress: bool,
+}
+
+/// Largest width or height accepted.
+pub const MAX_SIDE: u32 = 16384;
+/// Largest samples per pixel accepted.
+pub const MAX_SPP: u32 = 1 << 20;
+
+impl RenderSettings {
+    /// Defaults from the scene.
+    pub fn for_scene(desc: &SceneDesc) -> Self {
+        Self {
+            width: desc.film.0,
+            height: desc.film.1,
+            spp: desc.spp,
+            seed: 0,
+            threads: 0,
+            path: PathSettings {
+                max_depth: desc.max_depth,
+                ..PathSettings::default()
+            },
+            progress: true,
+        }
+    }
+
+    fn check(&self) -> Result<(), String> {
+        if !(1..=MAX_SIDE).contains(&self.width) || !(1..=MAX_SIDE).contains(&self.height) {
+            return Err(format!(
+                "width and height must be in 1..={MAX_SIDE} (got {} x {})",
+                self.width, self.height
+            ));
+        }
+        if !(1..=MAX_SPP).contains(&self.spp) {
+            return Err(format!("spp must be in 1..={MAX_SPP} (got {})", self.spp));
+        }
+        if !(1..=1024).contains(&self.path.max_depth) {
+            return Err(format!(
+                "max depth must be in 1..=1024 (got {})",
+                self.path.max_depth
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// A rendered image: linear RGB always, and the spectral bands when the scene was spectral.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Rendered {
+    /// Width.
+    pub width: u32,
+    /// Height.
+    pub height: u32,
+    /// Linear sRGB radiance (the mean of the samples), row-major, 3 per pixel.
+    pub rgb: Vec<f32>,
+    /// For spectral scenes, [`BANDS`] band radiances per pixel; empty for RGB scenes.
+    pub bands: Vec<f32>,
+    /// Wall-clock rendering time (after scene preparation).
+    pub elapsed: Duration,
+    /// Time spent building the BVH and tables.
+    pub prepare: Duration,
+    /// Camera samples traced (`width * height * spp`).
+    pub samples: u64,
+}
+
+impl Rendered {
+    /// Camera samples per second.
+    pub fn samples_per_second(&self) -> f64 {
+        self.samples as f64 / self.elapsed.as_secs_f64().max(1e-9)
+    }
+}
+
+const TILE: u32 = 16;
+
+/// Renders `desc`. Spectral scenes are traced in [`BANDS`] bands, others in RGB.
+pub fn render(desc: &SceneDesc, settings: &RenderSettings) -> Result<Rendered, String> {
+    settings.check()?;
+    if desc.is_spectral() {
+        let mut out = render_channels::<BANDS>(desc, settings)?;
+        let weights = xyz_weights();
+        let rgb = out
+            .bands
+            .chunks_exact(BANDS)
+            .flat_map(|b| bands_to_linear_srgb(b, &weights))
+            .collect();
+        out.rgb = rgb;
+        Ok(out)
+    } else {
+        render_channels::<3>(desc, settings)
+    }
+}
+
+fn camera_weight<const N: usize>(throughput: [f32; 3]) -> Channels<N> {
+    if throughput == [1.0; 3] {
+        return Channels::ONE;
+    }
+    if N == 3 {
+        let mut c = Channels::ZERO;
+        c.0.copy_from_slice(&throughput);
+        c
+    } else {
+        Channels(std::array::from_fn(|b| throughput[band_rgb_channel(b)]))
+    }
+}
+
+fn render_tile<const N: usize>(
+    scene: &Scene<N>,
+    rig: &CameraRig<'_>,
+    settings: &RenderSettings,
+    x0: u32,
+    y0: u32,
+) -> Vec<Channels<N>> {
+    let (w, h) = (settings.width, settings.height);
+    let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
+    let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
+    let inv_spp = 1.0 / settings.spp as f32;
+    for y in y0..y1 {
+        for x in x0..x1 {
+            let mut rng = Rng::new(settings.seed, y as u64 * w as u64 + x as u64);
+            let mut sum = Channels::<N>::ZERO;
+            for _ in 0..settings.spp {
+                let jitter = rng.next_2d();
+                let Some(cs) = rig.sample(x as f32 + jitter.x, y as f32 + jitter.y, &mut rng)
+                else {
+                    continue;
+                };
+                let s = rig.shutter_fraction(cs.ray.time);
+                let l = radiance(
+                    scene,
+                    &settings.path,
+                    cs.ray.origin,
+                    cs.ray.direction,
+                    s,
+                    camera_weight(cs.throughput),
+                    &mut rng,
+                );
+                // A NaN or infinity from a degenerate sample must not poison the pixel.
+                if l.0.iter().all(|v| v.is_finite()) {
+                    sum += l;
+                }
+            }
+            out.push(sum * inv_spp);
+        }
+    }
+    out
+}
+
+fn render_channels<const N: usize>(
+    desc: &SceneDesc,
+    settings: &RenderSettings,
+) -> Result<Rendered, String> {
+    let start = Instant::now();
+    let mut table = MaskTable::default();
+    let rig = desc.camera.rig(
+        settings.width,
+        settings.height,
+        desc.has_motion(),
+        &mut table,
+    )?;
+    let scene = Scene::<N>::new(desc);
+    let prepare = start.elapsed();
+    let (w, h) = (settings.width, settings.height);
+    let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
+        .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
+        .collect();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(settings.threads)
+        .build()
+        .map_err(|e| format!("cannot start render threads: {e}"))?;
+    let done = AtomicUsize::new(0);
+    let show = settings.progress && std::io::stderr().is_terminal();
+    let begin = Instant::now();
+    let finished = std::sync::atomic::AtomicBool::new(false);
+    let results: Vec<Vec<Channels<N>>> = std::thread::scope(|scope| {
+        if show {
+            scope.spawn(|| progress_bar(&done, tiles.len(), &finished, begin));
+        }
+        let results = pool.install(|| {
+            tiles
+                .par_iter()
+                .map(|&(x0, y0)| {
+                    let tile = render_tile(&scene, &rig, settings, x0, y0);
+                    done.fetch_add(1, Ordering::Relaxed);
+                    tile
+                })
+                .collect()
+        });
+        finished.store(true, Ordering::Relaxed);
+        results
+    });
+    let elapsed = begin.elapsed();
+    let mut data = vec![0.0f32; (w * h) as usize * N];
+    for (&(x0, y0), tile) in tiles.iter().zip(&results) {
+        let tw = (x0 + TILE).min(w) - x0;
+        for (k, c) in tile.iter().enumerate() {
+            let (x, y) = (x0 + k as u32 % tw, y0 + k as u32 / tw);
+            let i = (y * w + x) as usize * N;
+            data[i..i + N].copy_from_slice(&c.0);
+        }
+    }
+    let samples = w as u64 * h as u64 * settings.spp as u64;
+    let (rgb, bands) = if N == 3 {
+        (data, Vec::new())
+    } else {
+        (Vec::new(), data)
+    };
+    Ok(Rendered {
+        width: w,
+        height: h,
+        rgb,
+        bands,
+        elapsed,
+        prepare,
+        samples,
+    })
+}
+
+fn progress_bar(
+    done: &AtomicUsize,
+    total: usize,
+    finished: &std::sync::atomic::AtomicBool,
+    begin: Instant,
+) {
+    let draw = |n: usize| {
+        let width = 30;
+        let filled = n * width / total.max(1);
+        eprint!(
+            "\r\x1b[Krender [{}{}] {:>3}%  {:.1} s",
+            "#".repeat(filled),
+            " ".repeat(width - filled),
+            n * 100 / total.max(1),
+            begin.elapsed().as_secs_f64()
+        );
+    };
+    while !finished.load(Ordering::Relaxed) {
+        draw(done.load(Ordering::Relaxed));
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    draw(total);
+    eprintln!();
+}
