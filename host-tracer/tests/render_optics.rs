@@ -286,3 +286,62 @@ fn the_same_seed_gives_the_same_image_at_any_thread_count() {
     let other = render(&desc, &s).unwrap();
     assert_ne!(one.rgb, other.rgb);
 }
+
+#[test]
+fn a_distorted_camera_puts_a_point_where_brown_conrady_says() {
+    // Pinhole (so the image distance is f = 50 mm), 36 x 24 mm film of 240 x 160 px; a small
+    // emitter at (0.5, 0.3, -2) m lands at x_u = (0.25, -0.15) (OpenCV's y points down).
+    let coefficients = [-0.25, 0.08, 0.001, -0.002, 0.0];
+    let text = |distortion: &str| {
+        format!(
+            r#"
+[film]
+width = 240
+height = 160
+spp = 16
+max_depth = 1
+
+[camera]
+position = [0.0, 0.0, 0.0]
+target = [0.0, 0.0, -1.0]
+focal_length_mm = 50.0
+sensor_width_mm = 36.0
+{distortion}
+
+[[shape]]
+type = "sphere"
+center = [0.5, 0.3, -2.0]
+radius = 0.004
+emission = {{ rgb = [1.0, 1.0, 1.0] }}
+"#
+        )
+    };
+    let to_px = |[x, y]: [f64; 2]| {
+        [
+            (x * 50.0 / 36.0 + 0.5) * 240.0,
+            (0.5 + y * 50.0 / 24.0) * 160.0,
+        ]
+    };
+    let straight = shoot(&scene(&text("")), 5, 0);
+    let ((sx, sy), _, _) = moments(&straight);
+    let [ex, ey] = to_px([0.25, -0.15]);
+    assert!(
+        (sx - ex).abs() < 0.2 && (sy - ey).abs() < 0.2,
+        "({sx}, {sy}) vs ({ex}, {ey})"
+    );
+    let bent = shoot(
+        &scene(&text(&format!("distortion = {coefficients:?}"))),
+        5,
+        0,
+    );
+    let ((bx, by), _, _) = moments(&bent);
+    let model = optics_core::distortion::BrownConrady::from_opencv(coefficients).unwrap();
+    let [dx, dy] = to_px(model.distort([0.25, -0.15]).unwrap());
+    eprintln!("distorted point at ({bx:.2}, {by:.2}) px, Brown-Conrady says ({dx:.2}, {dy:.2})");
+    assert!(
+        (bx - dx).abs() < 0.2 && (by - dy).abs() < 0.2,
+        "({bx}, {by}) vs ({dx}, {dy})"
+    );
+    // Barrel distortion pulls it towards the centre.
+    assert!((bx - 120.0).abs() < (sx - 120.0).abs());
+}
