@@ -1,5 +1,7 @@
-//! `camsim isp`: a raw mosaic file through isp-core's pipeline to an sRGB PNG, printing the
-//! stages run, the AWB estimate and the time each stage costs.
+//! `camsim isp`: a raw mosaic file (DNG, or a PNG/PGM mosaic) through isp-core's pipeline to
+//! an sRGB PNG, printing the stages run, the AWB estimate and the time each stage costs. A
+//! DNG gives the pattern, levels, as-shot white balance and colour matrices; flags and the
+//! config file override them.
 //!
 //! Stage times come from ablation: the pipeline is fused (every stage runs per row in one
 //! pass), so each stage's cost is the time of a run with it minus the time of a run without it,
@@ -20,6 +22,10 @@ use isp_core::tone::Look;
 use isp_core::wb::{self, AwbEstimate};
 use isp_core::CfaPattern;
 
+use isp_core::ccm::Calibration;
+
+use crate::calibrate::CalibrationFile;
+use crate::dng::Dng;
 use crate::imageio::{self, Image};
 use crate::isp_options::{self as options, IspOptions, WhiteBalance};
 
@@ -27,7 +33,7 @@ use crate::isp_options::{self as options, IspOptions, WhiteBalance};
 /// (see [`crate::isp_options`]); a flag given here wins over the file.
 #[derive(Args, Debug, Clone)]
 pub struct IspArgs {
-    /// Input mosaic: single-channel 8- or 16-bit PNG or PGM.
+    /// Input: a DNG (uncompressed CFA), or a single-channel 8- or 16-bit PNG or PGM mosaic.
     #[arg(long)]
     pub input: PathBuf,
     /// Output sRGB image (.png or .ppm).
@@ -81,6 +87,10 @@ pub struct IspArgs {
     /// Look: neutral, vivid, muted, mono or high-contrast [default: neutral].
     #[arg(long)]
     pub look: Option<String>,
+    /// Colour calibration file from `camsim calibrate`: the colour matrix then follows the
+    /// white balance's colour temperature [default: the DNG's ColorMatrix tags, if any].
+    #[arg(long)]
+    pub calibration: Option<PathBuf>,
     /// float (the reference) or fixed (the firmware path) [default: float].
     #[arg(long)]
     pub path: Option<String>,
@@ -212,9 +222,78 @@ impl IspReport {
     }
 }
 
+/// Where defaults come from beyond the flags and the config file: a DNG's tags.
+#[derive(Debug, Clone, Default)]
+pub struct RawSource {
+    /// Options the file states (pattern, bits, levels, as-shot white balance).
+    pub defaults: IspOptions,
+    /// The file's colour calibration.
+    pub calibration: Option<Calibration>,
+}
+
+/// Reads a DNG as a mosaic image and the defaults its tags give.
+pub fn read_dng(path: &std::path::Path) -> Result<(Image, RawSource), String> {
+    let dng = Dng::read(path)?;
+    let bits = (16 - dng.white_level.leading_zeros()).clamp(8, 16) as u8;
+    let image = Image {
+        width: dng.width,
+        height: dng.height,
+        channels: 1,
+        bits: 16,
+        data: dng.raw.clone(),
+    };
+    let white_balance = dng
+        .as_shot_neutral
+        .map(|n| WhiteBalance::Gains([(n[1] / n[0]) as f32, 1.0, (n[1] / n[2]) as f32]));
+    let mut entries = Vec::new();
+    for (illuminant, xyz_to_camera) in &dng.calibrations {
+        let cct = illuminant.cct_k().ok_or_else(|| {
+            format!(
+                "{}: calibration illuminant code {} has no known colour temperature (A, D50, D55, D65, D75 do)",
+                path.display(),
+                illuminant.code()
+            )
+        })?;
+        let to_xyz = isp_core::colour::mat3_inverse(xyz_to_camera)
+            .map_err(|e| format!("{}: ColorMatrix: {e}", path.display()))?;
+        entries.push((cct, to_xyz));
+    }
+    let calibration = match entries.as_slice() {
+        [] => None,
+        [(t, m)] => Some(Calibration::single(*t, *m)),
+        [(t1, m1), (t2, m2)] => Some(Calibration::new([*t1, *t2], [*m1, *m2])),
+        _ => None,
+    }
+    .transpose()
+    .map_err(|e| format!("{}: colour matrices: {e}", path.display()))?;
+    let defaults = IspOptions {
+        pattern: Some(dng.pattern),
+        bits: Some(bits),
+        black_level: Some(dng.black_level.to_vec()),
+        white_level: Some(dng.white_level),
+        white_balance,
+        ..IspOptions::default()
+    };
+    Ok((
+        image,
+        RawSource {
+            defaults,
+            calibration,
+        },
+    ))
+}
+
 /// Runs `camsim isp`; returns the report text.
 pub fn run(args: &IspArgs) -> Result<String, String> {
-    let image = imageio::read(&args.input)?;
+    let is_dng = args
+        .input
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("dng"));
+    let (image, source) = if is_dng {
+        read_dng(&args.input)?
+    } else {
+        (imageio::read(&args.input)?, RawSource::default())
+    };
     if image.channels != 1 {
         return Err(format!(
             "{}: expected a single-channel mosaic, found {} channels",
@@ -222,14 +301,38 @@ pub fn run(args: &IspArgs) -> Result<String, String> {
             image.channels
         ));
     }
-    let (report, rgb) = process(&image, args)?;
+    let (report, rgb) = process_raw(&image, args, source)?;
     imageio::write(&args.output, &rgb)?;
     Ok(report.to_text() + &format!("wrote {}\n", args.output.display()))
 }
 
 /// Processes a mosaic image with the options; returns the report and the RGB image.
 pub fn process(image: &Image, args: &IspArgs) -> Result<(IspReport, Image), String> {
-    let options = args.options()?;
+    process_raw(image, args, RawSource::default())
+}
+
+/// The colour temperature of a camera neutral under a calibration (two passes: the matrix
+/// depends on the temperature).
+pub fn neutral_cct(calibration: &Calibration, neutral: [f32; 3]) -> Result<f64, String> {
+    let mut cct = 5000.0;
+    for _ in 0..3 {
+        let m = calibration.camera_to_xyz(cct).map_err(|e| e.to_string())?;
+        cct = wb::cct_of_neutral(neutral, &m).map_err(|e| e.to_string())?;
+    }
+    Ok(cct)
+}
+
+/// [`process`] with a raw file's defaults and calibration under the flags and config file.
+pub fn process_raw(
+    image: &Image,
+    args: &IspArgs,
+    source: RawSource,
+) -> Result<(IspReport, Image), String> {
+    let options = args.options()?.or(source.defaults);
+    let calibration = match &args.calibration {
+        Some(path) => Some(CalibrationFile::read(path)?.to_isp()?),
+        None => source.calibration,
+    };
     let pattern = options.pattern.unwrap_or(CfaPattern::Rggb);
     let bits = options.bits.unwrap_or(image.bits);
     if !(8..=16).contains(&bits) || bits > image.bits {
@@ -256,12 +359,29 @@ pub fn process(image: &Image, args: &IspArgs) -> Result<(IspReport, Image), Stri
     let wb_gains = match options.white_balance {
         Some(WhiteBalance::Gains(g)) => g,
         Some(WhiteBalance::Auto(method)) => {
-            let est = wb::estimate(&raw, method, &LINEAR_SRGB_TO_XYZ)
-                .map_err(|e| format!("--awb: {e}"))?;
+            let to_xyz = match &calibration {
+                Some(c) => c.camera_to_xyz(6504.0).map_err(|e| e.to_string())?,
+                None => LINEAR_SRGB_TO_XYZ,
+            };
+            let mut est = wb::estimate(&raw, method, &to_xyz).map_err(|e| format!("--awb: {e}"))?;
+            if let Some(c) = &calibration {
+                est.cct_k = neutral_cct(c, est.neutral)?;
+            }
             awb = Some(est);
             est.gains
         }
         None => [1.0; 3],
+    };
+    // With a calibration and no explicit matrix, the CCM follows the white balance.
+    let ccm = match (options.ccm, &calibration) {
+        (Some(m), _) => m,
+        (None, Some(c)) => {
+            let neutral = wb_gains.map(|g| 1.0 / g);
+            let cct = neutral_cct(c, neutral)?;
+            c.ccm(cct, wb_gains)
+                .map_err(|e| format!("colour matrix from the calibration: {e}"))?
+        }
+        (None, None) => isp_core::pipeline::IDENTITY,
     };
     let demosaic = options.demosaic.unwrap_or(Method::Bilinear);
     let defects = options.defects.clone().unwrap_or_default();
@@ -299,13 +419,29 @@ pub fn process(image: &Image, args: &IspArgs) -> Result<(IspReport, Image), Stri
         demosaic,
         distortion,
         denoise: options.denoise.unwrap_or(0.0),
-        ccm: options.ccm.unwrap_or(isp_core::pipeline::IDENTITY),
+        ccm,
         tone: options.look.unwrap_or(Look::Neutral).tone(),
     };
     config.validate().map_err(|e| e.to_string())?;
     let fixed = options.fixed.unwrap_or(false);
     let out_bits = options.out_bits.unwrap_or(8);
+    let (mut report, rgb) = execute(&raw, &config, fixed, out_bits)?;
+    report.awb = awb;
+    Ok((report, rgb))
+}
 
+/// Runs the pipeline on `raw` with `config` (float or fixed path, 8- or 16-bit output) and
+/// times each stage by ablation; returns the report (with no AWB estimate) and the image.
+pub fn execute(
+    raw: &RawFrame<'_>,
+    config: &IspConfig<'_>,
+    fixed: bool,
+    out_bits: u8,
+) -> Result<(IspReport, Image), String> {
+    let raw = *raw;
+    let config = *config;
+    let (demosaic, distortion, wb_gains) = (config.demosaic, config.distortion, config.wb_gains);
+    let (w, h) = (raw.mosaic().width(), raw.mosaic().height());
     let mut out = vec![0u16; w * h * 3];
     let total_ms = if out_bits == 8 {
         let mut out8 = vec![0u8; w * h * 3];
@@ -363,7 +499,7 @@ pub fn process(image: &Image, args: &IspArgs) -> Result<(IspReport, Image), Stri
     }
     let report = IspReport {
         stages,
-        awb,
+        awb: None,
         wb_gains,
         distortion: distortion
             .filter(|_| lens_on)

@@ -33,6 +33,12 @@ enum Command {
     /// Render a scene (built-in cornell-box or demo, or a TOML file) with the path tracer to
     /// linear RGB radiance (OpenEXR) and an sRGB preview.
     Render(Box<host_tracer::render_cmd::RenderArgs>),
+    /// The whole camera on a built-in scene: render, sensor, raw DNG, ISP (float and fixed),
+    /// ground truth, side-by-side comparison and a report (PSNR, ColorChecker error, AWB).
+    Demo(Box<host_tracer::demo_cmd::DemoArgs>),
+    /// Fit a camera's colour matrix on a rendered ColorChecker (under A and D65 by default)
+    /// and write it for camsim isp and camsim demo.
+    Calibrate(host_tracer::demo_cmd::CalibrateArgs),
     /// Measure accuracy against speed.
     Bench {
         #[command(subcommand)]
@@ -179,6 +185,8 @@ fn main() -> ExitCode {
         Command::Demosaic(args) => demosaic(args),
         Command::Isp(args) => host_tracer::isp_cmd::run(args),
         Command::Render(args) => host_tracer::render_cmd::run(args),
+        Command::Demo(args) => host_tracer::demo_cmd::run(args),
+        Command::Calibrate(args) => host_tracer::demo_cmd::run_calibrate(args),
         Command::Bench {
             what: BenchCommand::Demosaic(args),
         } => bench_demosaic(args),

@@ -49,9 +49,10 @@ pub struct RenderArgs {
     /// sRGB preview out (8-bit PNG): radiance times 2^exposure, clipped, sRGB-encoded.
     #[arg(long, value_name = "out.png")]
     pub preview: Option<PathBuf>,
-    /// Exposure of the preview in stops.
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-    pub exposure: f32,
+    /// Exposure of the preview in stops [default: automatic, the 99th percentile of the
+    /// brightest channel at 1].
+    #[arg(long, allow_hyphen_values = true)]
+    pub exposure: Option<f32>,
     /// Print the report as one JSON object.
     #[arg(long)]
     pub json: bool,
@@ -108,6 +109,26 @@ pub fn settings(args: &RenderArgs, scene: &mut SceneDesc) -> Result<RenderSettin
     Ok(s)
 }
 
+/// The exposure (stops) that puts the 99th percentile of the pixels' brightest channel at 1.
+pub fn auto_exposure(image: &Rendered) -> f32 {
+    let mut peaks: Vec<f32> = image
+        .rgb
+        .chunks_exact(3)
+        .map(|p| p[0].max(p[1]).max(p[2]))
+        .filter(|v| v.is_finite())
+        .collect();
+    if peaks.is_empty() {
+        return 0.0;
+    }
+    let k = ((peaks.len() as f64 * 0.99) as usize).min(peaks.len() - 1);
+    let (_, p99, _) = peaks.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
+    if *p99 > 0.0 {
+        -p99.log2()
+    } else {
+        0.0
+    }
+}
+
 /// The sRGB preview: radiance times `2^exposure`, clipped to [0, 1], sRGB-encoded to 8 bits.
 pub fn preview(image: &Rendered, exposure: f32) -> Image {
     let k = exposure.exp2();
@@ -129,8 +150,8 @@ pub fn run(args: &RenderArgs) -> Result<String, String> {
     if args.linear.is_none() && args.preview.is_none() {
         return Err("nothing to write: give --linear out.exr and/or --preview out.png".into());
     }
-    if !args.exposure.is_finite() {
-        return Err(format!("--exposure must be finite (got {})", args.exposure));
+    if let Some(e) = args.exposure.filter(|e| !e.is_finite()) {
+        return Err(format!("--exposure must be finite (got {e})"));
     }
     let mut scene = scene_file::load(&args.scene)?;
     let settings = settings(args, &mut scene)?;
@@ -144,7 +165,8 @@ pub fn run(args: &RenderArgs) -> Result<String, String> {
         )?;
     }
     if let Some(path) = &args.preview {
-        imageio::write(path, &preview(&image, args.exposure))?;
+        let exposure = args.exposure.unwrap_or_else(|| auto_exposure(&image));
+        imageio::write(path, &preview(&image, exposure))?;
     }
     let mut mean = [0.0f64; 3];
     for px in image.rgb.chunks_exact(3) {

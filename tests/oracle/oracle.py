@@ -68,6 +68,7 @@ def op_ping(args, arrays):
     import colour
     import colour_demosaicing
     import cv2
+    import rawpy
 
     versions = {
         "python": sys.version.split()[0],
@@ -75,6 +76,7 @@ def op_ping(args, arrays):
         "opencv": cv2.__version__,
         "colour-science": colour.__version__,
         "colour-demosaicing": colour_demosaicing.__version__,
+        "rawpy": rawpy.__version__,
     }
     return {"versions": versions}, []
 
@@ -206,6 +208,28 @@ def op_malvar2004(args, arrays):
 
     cfa = arrays[0].astype(np.float64)
     return {}, [demosaicing_CFA_Bayer_Malvar2004(cfa, args["pattern"])]
+
+
+def op_rawpy_read(args, arrays):
+    """args: path of a DNG. Returns LibRaw's view of it: the raw samples (H,W) u16, raw_pattern
+    (2,2) u8 (LibRaw's colour indices: 0 R, 1 G, 2 B, 3 second G), black level per channel (4,),
+    white level, color_matrix (LibRaw's camera-to-sRGB matrix derived from the D65 ColorMatrix,
+    3x3) and the as-shot white balance (camera_whitebalance, 4 values). LibRaw refuses images
+    smaller than 22 x 22."""
+    import rawpy
+
+    with rawpy.imread(args["path"]) as raw:
+        return {
+            "white_level": int(raw.white_level),
+            "num_colors": int(raw.num_colors),
+            "color_desc": raw.color_desc.decode(),
+        }, [
+            np.array(raw.raw_image_visible, dtype=np.uint16),
+            np.array(raw.raw_pattern, dtype=np.uint8),
+            np.array(raw.black_level_per_channel, dtype=np.float64),
+            np.array(raw.color_matrix[:, :3], dtype=np.float64),
+            np.array(raw.camera_whitebalance, dtype=np.float64),
+        ]
 
 
 OPS = {name[3:]: fn for name, fn in globals().items() if name.startswith("op_")}

@@ -211,3 +211,21 @@ pub fn scene_file(data: &[u8]) {
         }
     }
 }
+
+/// DNG files: any bytes are a frame or an error (never a panic or a huge allocation); a frame
+/// that decodes has as many samples as pixels and black below white, and encodes back to bytes
+/// that decode to the same frame.
+pub fn dng_decode(data: &[u8]) {
+    use host_tracer::dng::Dng;
+    if let Ok(dng) = Dng::decode(data) {
+        assert_eq!(dng.raw.len(), dng.width * dng.height);
+        assert!(dng.black_level.iter().all(|b| *b < dng.white_level));
+        // The writer refuses only what it cannot express (e.g. a third matrix is never read).
+        if let Ok(bytes) = dng.encode() {
+            let back = Dng::decode(&bytes).expect("the writer's output decodes");
+            assert_eq!(back.raw, dng.raw);
+            assert_eq!(back.pattern, dng.pattern);
+            assert_eq!(back.black_level, dng.black_level);
+        }
+    }
+}

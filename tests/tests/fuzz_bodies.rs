@@ -106,6 +106,19 @@ proptest! {
 
     #[test]
     fn scene_texts(text in scene_text()) { scene_file(text.as_bytes()); }
+
+    #[test]
+    fn dng_bytes(data in proptest::collection::vec(any::<u8>(), 0..400)) { dng_decode(&data); }
+
+    #[test]
+    fn dng_damaged(flips in proptest::collection::vec((any::<prop::sample::Index>(), any::<u8>()), 1..6)) {
+        let mut bytes = valid_dng();
+        for (i, v) in flips {
+            let at = i.index(bytes.len());
+            bytes[at] = v;
+        }
+        dng_decode(&bytes);
+    }
 }
 
 proptest! {
@@ -160,4 +173,29 @@ fn fuzz_regressions_stay_fixed() {
         replayed >= 2,
         "expected the saved regressions, found {replayed}"
     );
+}
+
+fn valid_dng() -> Vec<u8> {
+    host_tracer::dng::Dng {
+        width: 6,
+        height: 4,
+        pattern: isp_core::CfaPattern::Grbg,
+        black_level: [64, 65, 66, 67],
+        white_level: 1023,
+        raw: (0..24).map(|i| i * 40).collect(),
+        camera_model: "fuzz".into(),
+        calibrations: vec![(
+            host_tracer::dng::Illuminant::D65,
+            [[1.0, 0.1, 0.0], [0.0, 1.0, 0.1], [0.1, 0.0, 1.0]],
+        )],
+        as_shot_neutral: Some([0.5, 1.0, 0.7]),
+    }
+    .encode()
+    .unwrap()
+}
+
+#[test]
+fn dng_seed_decodes() {
+    dng_decode(&valid_dng());
+    assert!(host_tracer::dng::Dng::decode(&valid_dng()).is_ok());
 }

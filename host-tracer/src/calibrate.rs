@@ -1,0 +1,367 @@
+//! Colour calibration: render the ColorChecker under an illuminant, capture it through the
+//! sensor model (noise off), fit the camera-to-XYZ matrix and measure it in CIE 2000.
+//!
+//! The chart scene is the 24 BabelColor patches alone under a constant environment of the
+//! illuminant's spectrum. Every ray that leaves a flat patch sees the same radiance, so the
+//! path tracer's estimate at a patch is exact (reflectance x environment) and one sample per
+//! pixel suffices. The reference XYZ of each patch comes from the same render's bands, scaled so
+//! the illuminant itself has `Y = 1`; the camera values are the raw means over each patch's
+//! centre, black subtracted, as fractions of the ADC range.
+//!
+//! The fit is 3x3 least squares (isp-core's [`isp_core::ccm::fit`], the matrix the ISP and
+//! the DNG use). A second-order root-polynomial fit (Finlayson, Mackiewicz and Hurlbert 2015:
+//! terms R, G, B, sqrt(RG), sqrt(GB), sqrt(RB)) is offered for comparison; it is exposure
+//! invariant but not a 3x3 matrix, so only its errors are reported, beside the matrix's.
+
+use std::path::Path;
+
+use isp_core::ccm::fit;
+use isp_core::colour::{self, Mat3};
+
+use crate::sensor::{self, LensGeometry, Response, SensorConfig};
+use crate::spectra::{Table, COLORCHECKER};
+use crate::tracer::color::{xyz_weights, BANDS};
+use crate::tracer::render::{render, RenderSettings};
+use crate::tracer::scene_file;
+
+/// Pixels per patch side in the chart render.
+const PATCH_PX: usize = 16;
+
+/// One illuminant's calibration.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Calibrated {
+    /// Illuminant name (a column of [`crate::spectra::ILLUMINANTS`]).
+    pub illuminant: String,
+    /// Its correlated colour temperature (McCamy 1992 from its XYZ), kelvin.
+    pub cct_k: f64,
+    /// The fitted 3x3 camera-to-XYZ matrix.
+    pub camera_to_xyz: Mat3,
+    /// Per-patch CIE 2000 error of the 3x3 fit.
+    pub delta_e_matrix: Vec<f64>,
+    /// Per-patch CIE 2000 error of the root-polynomial fit.
+    pub delta_e_root_polynomial: Vec<f64>,
+    /// The 24 patches' camera values and reference XYZ.
+    pub patches: Vec<([f64; 3], [f64; 3])>,
+    /// The illuminant's colour in camera RGB (green 1): the neutral a white balance aims for.
+    pub neutral: [f64; 3],
+}
+
+/// Mean and maximum of a list.
+pub fn mean_max(v: &[f64]) -> (f64, f64) {
+    let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
+    (mean, v.iter().copied().fold(0.0, f64::max))
+}
+
+/// The chart scene as TOML: 6 x 4 patches, 0.1 apart with 0.07 faces, seen square-on by a
+/// pinhole that frames them exactly.
+fn chart_scene(illuminant: &str) -> Result<String, String> {
+    let names = Table::parse(COLORCHECKER)?.names().to_vec();
+    let mut text = format!(
+        "[film]\nwidth = {}\nheight = {}\nspp = 1\nmax_depth = 2\n\n\
+         [camera]\nposition = [0.0, 0.0, 1.0]\ntarget = [0.0, 0.0, 0.0]\n\
+         focal_length_mm = 50.0\nsensor_width_mm = 30.0\n\n\
+         [environment]\nilluminant = {illuminant:?}\nluminance = 1.0\n\n[materials]\n",
+        6 * PATCH_PX,
+        4 * PATCH_PX
+    );
+    for (i, name) in names.iter().enumerate() {
+        text += &format!("p{i:02} = {{ colorchecker = {name:?} }}\n");
+    }
+    for i in 0..names.len() {
+        let (col, row) = ((i % 6) as f64, (i / 6) as f64);
+        let (cx, cy) = (-0.25 + 0.1 * col, 0.15 - 0.1 * row);
+        let (x0, x1, y0, y1) = (cx - 0.035, cx + 0.035, cy - 0.035, cy + 0.035);
+        text += &format!(
+            "\n[[shape]]\ntype = \"quad\"\nmaterial = \"p{i:02}\"\n\
+             corners = [[{x0}, {y0}, 0.0], [{x1}, {y0}, 0.0], [{x1}, {y1}, 0.0], [{x0}, {y1}, 0.0]]\n"
+        );
+    }
+    Ok(text)
+}
+
+/// Calibrates `camera` under `illuminant`.
+pub fn calibrate(camera: &str, illuminant: &str) -> Result<Calibrated, String> {
+    let response = Response::named(camera)?;
+    let scene = scene_file::parse(
+        &chart_scene(illuminant)?,
+        "<ColorChecker chart>",
+        Path::new("."),
+    )?;
+    let settings = RenderSettings {
+        progress: false,
+        ..RenderSettings::for_scene(&scene)
+    };
+    let image = render(&scene, &settings)?;
+    let (w, h) = (image.width as usize, image.height as usize);
+    if image.bands.len() != w * h * BANDS {
+        return Err("the chart render is not spectral".into());
+    }
+    let config = SensorConfig {
+        camera: camera.into(),
+        ..SensorConfig::ideal()
+    };
+    let lens = LensGeometry::of_camera(&scene.camera, image.width, image.height);
+    let camera_rgb = response.camera_rgb(&image.bands, &image.rgb);
+    let capture = sensor::capture(&camera_rgb, w, h, lens, &config)?;
+    let weights = xyz_weights();
+    let range = (capture.white_level - capture.black_level) as f64;
+
+    let mut patches = Vec::with_capacity(24);
+    for i in 0..24 {
+        let (x0, y0) = ((i % 6) * PATCH_PX, (i / 6) * PATCH_PX);
+        let (mut rgb, mut counts, mut xyz) = ([0.0f64; 3], [0.0f64; 3], [0.0f64; 3]);
+        let mut n = 0.0;
+        for y in y0 + PATCH_PX / 4..y0 + 3 * PATCH_PX / 4 {
+            for x in x0 + PATCH_PX / 4..x0 + 3 * PATCH_PX / 4 {
+                let c = capture.pattern.colour_at(x, y).index();
+                let v = capture.raw[y * w + x] as f64 - capture.black_level as f64;
+                rgb[c] += v / range;
+                counts[c] += 1.0;
+                let bands = &image.bands[(y * w + x) * BANDS..][..BANDS];
+                for (b, wt) in bands.iter().zip(&weights) {
+                    for k in 0..3 {
+                        xyz[k] += (*b * wt[k]) as f64;
+                    }
+                }
+                n += 1.0;
+            }
+        }
+        patches.push((
+            std::array::from_fn(|c| rgb[c] / counts[c]),
+            xyz.map(|v| v / n),
+        ));
+    }
+    let (white_xyz, neutral) = illuminant_colour(illuminant, &response)?;
+    let camera_values: Vec<[f64; 3]> = patches.iter().map(|p| p.0).collect();
+    let reference: Vec<[f64; 3]> = patches.iter().map(|p| p.1).collect();
+    let camera_to_xyz = fit(&camera_values, &reference).map_err(|e| e.to_string())?;
+    let lab = |v: [f64; 3]| colour::xyz_to_lab(v, white_xyz).map_err(|e| e.to_string());
+    let mut delta_e_matrix = Vec::new();
+    for (c, r) in camera_values.iter().zip(&reference) {
+        let fitted = colour::mat3_mul_vec(&camera_to_xyz, *c);
+        delta_e_matrix.push(colour::delta_e_2000(lab(fitted)?, lab(*r)?));
+    }
+    let root = fit_root_polynomial(&camera_values, &reference)?;
+    let mut delta_e_root_polynomial = Vec::new();
+    for (c, r) in camera_values.iter().zip(&reference) {
+        let terms = root_terms(*c);
+        let fitted: [f64; 3] = std::array::from_fn(|k| (0..6).map(|j| root[k][j] * terms[j]).sum());
+        delta_e_root_polynomial.push(colour::delta_e_2000(lab(fitted)?, lab(*r)?));
+    }
+    let cct_k = colour::xy_to_cct_mccamy(colour::xyz_to_xy(white_xyz).map_err(|e| e.to_string())?)
+        .map_err(|e| e.to_string())?;
+    Ok(Calibrated {
+        illuminant: illuminant.into(),
+        cct_k,
+        camera_to_xyz,
+        delta_e_matrix,
+        delta_e_root_polynomial,
+        patches,
+        neutral,
+    })
+}
+
+/// The illuminant's XYZ (Y = 1) and its colour in camera RGB (green 1), on the tracer's bands.
+pub fn illuminant_colour(
+    illuminant: &str,
+    response: &Response,
+) -> Result<([f64; 3], [f64; 3]), String> {
+    let table = Table::parse(crate::spectra::ILLUMINANTS)?;
+    let spd = table.column(illuminant).ok_or_else(|| {
+        format!(
+            "unknown illuminant {illuminant:?}; known: {}",
+            table.names().join(", ")
+        )
+    })?;
+    let bands = crate::tracer::color::bands_from_grid(spd);
+    let weights = xyz_weights();
+    let mut xyz = [0.0f64; 3];
+    for (b, w) in bands.iter().zip(&weights) {
+        for k in 0..3 {
+            xyz[k] += (*b * w[k]) as f64;
+        }
+    }
+    let rgb = response.of_bands(&bands).map(|v| v as f64);
+    if !(xyz[1] > 0.0 && rgb[1] > 0.0) {
+        return Err(format!("illuminant {illuminant}: no light in 400..700 nm"));
+    }
+    Ok((xyz.map(|v| v / xyz[1]), rgb.map(|v| v / rgb[1])))
+}
+
+fn root_terms(c: [f64; 3]) -> [f64; 6] {
+    let [r, g, b] = c.map(|v| v.max(0.0));
+    [r, g, b, (r * g).sqrt(), (g * b).sqrt(), (r * b).sqrt()]
+}
+
+/// Least squares `reference ~ M * terms(camera)`, `M` 3 x 6, by the normal equations.
+fn fit_root_polynomial(
+    camera: &[[f64; 3]],
+    reference: &[[f64; 3]],
+) -> Result<[[f64; 6]; 3], String> {
+    let mut gram = [[0.0f64; 6]; 6];
+    let mut cross = [[0.0f64; 6]; 3];
+    for (c, r) in camera.iter().zip(reference) {
+        let t = root_terms(*c);
+        for i in 0..6 {
+            for j in 0..6 {
+                gram[i][j] += t[i] * t[j];
+            }
+            for k in 0..3 {
+                cross[k][i] += r[k] * t[i];
+            }
+        }
+    }
+    let mut out = [[0.0f64; 6]; 3];
+    for k in 0..3 {
+        out[k] = solve6(gram, cross[k]).ok_or("root-polynomial fit: singular patch terms")?;
+    }
+    Ok(out)
+}
+
+/// Gaussian elimination with partial pivoting.
+#[allow(clippy::needless_range_loop)] // matrix code reads best with indices
+fn solve6(mut a: [[f64; 6]; 6], mut b: [f64; 6]) -> Option<[f64; 6]> {
+    for col in 0..6 {
+        let pivot = (col..6).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;
+        if a[pivot][col].abs() < 1e-300 {
+            return None;
+        }
+        a.swap(col, pivot);
+        b.swap(col, pivot);
+        for row in col + 1..6 {
+            let f = a[row][col] / a[col][col];
+            for k in col..6 {
+                a[row][k] -= f * a[col][k];
+            }
+            b[row] -= f * b[col];
+        }
+    }
+    let mut x = [0.0; 6];
+    for row in (0..6).rev() {
+        let s: f64 = (row + 1..6).map(|k| a[row][k] * x[k]).sum();
+        x[row] = (b[row] - s) / a[row][row];
+    }
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}
+
+/// A calibration file: the camera and one entry per illuminant. `camsim isp --calibration`,
+/// `camsim demo --calibration` and the DNG writer read it.
+pub fn to_toml(camera: &str, calibrations: &[Calibrated]) -> String {
+    let mut out = format!(
+        "# camsim colour calibration, written by `camsim calibrate`.\n\
+         # camera_to_xyz maps raw camera RGB (black subtracted, not white balanced) to CIE XYZ.\n\
+         camera = {camera:?}\n"
+    );
+    for c in calibrations {
+        let (mean, max) = mean_max(&c.delta_e_matrix);
+        let m = c.camera_to_xyz;
+        out += &format!(
+            "\n[[calibration]]\nilluminant = {:?}\ncct_k = {:.0}\ncamera_to_xyz = [\n  [{:.6}, {:.6}, {:.6}],\n  [{:.6}, {:.6}, {:.6}],\n  [{:.6}, {:.6}, {:.6}],\n]\ndelta_e_2000_mean = {mean:.3}\ndelta_e_2000_max = {max:.3}\n",
+            c.illuminant, c.cct_k, m[0][0], m[0][1], m[0][2], m[1][0], m[1][1], m[1][2], m[2][0], m[2][1], m[2][2]
+        );
+    }
+    out
+}
+
+/// A calibration read back from a file: camera name and (illuminant, CCT, matrix) entries.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CalibrationFile {
+    /// Camera name.
+    pub camera: String,
+    /// Entries: illuminant name, CCT in kelvin, camera-to-XYZ matrix.
+    pub entries: Vec<(String, f64, Mat3)>,
+}
+
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileEntry {
+    illuminant: String,
+    cct_k: f64,
+    camera_to_xyz: [[f64; 3]; 3],
+    #[allow(dead_code)]
+    delta_e_2000_mean: Option<f64>,
+    #[allow(dead_code)]
+    delta_e_2000_max: Option<f64>,
+}
+
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileBody {
+    camera: String,
+    calibration: Vec<FileEntry>,
+}
+
+impl CalibrationFile {
+    /// Reads a file written by [`to_toml`].
+    pub fn read(path: &Path) -> Result<Self, String> {
+        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let body: FileBody =
+            toml::from_str(&text).map_err(|e| format!("{}: {}", path.display(), e.message()))?;
+        if body.calibration.is_empty() || body.calibration.len() > 2 {
+            return Err(format!(
+                "{}: expected one or two [[calibration]] entries, found {}",
+                path.display(),
+                body.calibration.len()
+            ));
+        }
+        let entries = body
+            .calibration
+            .into_iter()
+            .map(|e| (e.illuminant, e.cct_k, e.camera_to_xyz))
+            .collect();
+        let file = CalibrationFile {
+            camera: body.camera,
+            entries,
+        };
+        file.to_isp()
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+        Ok(file)
+    }
+
+    /// isp-core's calibration (one or two matrices, interpolated by CCT).
+    pub fn to_isp(&self) -> Result<isp_core::ccm::Calibration, String> {
+        let r = match self.entries.as_slice() {
+            [(_, t, m)] => isp_core::ccm::Calibration::single(*t, *m),
+            [(_, t1, m1), (_, t2, m2)] => isp_core::ccm::Calibration::new([*t1, *t2], [*m1, *m2]),
+            _ => return Err("expected one or two calibrations".into()),
+        };
+        r.map_err(|e| e.to_string())
+    }
+}
+
+/// `camsim calibrate`'s report for one illuminant.
+pub fn report_text(camera: &str, c: &Calibrated) -> String {
+    let (mean, max) = mean_max(&c.delta_e_matrix);
+    let (rp_mean, rp_max) = mean_max(&c.delta_e_root_polynomial);
+    let m = c.camera_to_xyz;
+    format!(
+        "{camera} under {} ({:.0} K):\n  camera -> XYZ (3x3 least squares):\n    [{:9.5} {:9.5} {:9.5}]\n    [{:9.5} {:9.5} {:9.5}]\n    [{:9.5} {:9.5} {:9.5}]\n  CIE 2000 error on the 24 patches: 3x3 mean {mean:.2}, max {max:.2}; root-polynomial mean {rp_mean:.2}, max {rp_max:.2}\n",
+        c.illuminant, c.cct_k, m[0][0], m[0][1], m[0][2], m[1][0], m[1][1], m[1][2], m[2][0], m[2][1], m[2][2]
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    #[allow(clippy::needless_range_loop)]
+    fn solve6_inverts() {
+        let mut a = [[0.0; 6]; 6];
+        for i in 0..6 {
+            for j in 0..6 {
+                a[i][j] = if i == j {
+                    4.0
+                } else {
+                    1.0 / (1 + i + j) as f64
+                };
+            }
+        }
+        let x = [1.0, -2.0, 3.0, 0.5, 0.0, 7.0];
+        let b: [f64; 6] = std::array::from_fn(|i| (0..6).map(|j| a[i][j] * x[j]).sum());
+        let got = solve6(a, b).unwrap();
+        for i in 0..6 {
+            assert!((got[i] - x[i]).abs() < 1e-12);
+        }
+    }
+}

@@ -1,0 +1,842 @@
+//! Raw DNG files: a writer for camsim's captures and a reader for uncompressed CFA DNGs.
+//!
+//! The writer makes a little-endian, single-strip, 16-bit uncompressed CFA DNG (version
+//! 1.4) with the tags a raw converter needs: CFA pattern, black and white level, one or two
+//! colour matrices with their calibration illuminants, and the as-shot neutral. LibRaw (rawpy)
+//! reads these files; the oracle suite checks it.
+//!
+//! The reader takes what camsim writes and the common case of other writers: either byte
+//! order, the raw image in IFD 0 or in a SubIFD (NewSubfileType 0), 8- or 16-bit samples in
+//! strips, a 2x2 CFA of R, G, B, black level as one value or one per 2x2 position. Compressed,
+//! tiled or linear DNGs are refused with an error that says so. Every offset and count is
+//! checked against the file, so a damaged file gives an error, never a panic.
+//!
+//! ```
+//! use host_tracer::dng::{Dng, Illuminant};
+//! use isp_core::CfaPattern;
+//! let dng = Dng {
+//!     width: 4,
+//!     height: 2,
+//!     pattern: CfaPattern::Grbg,
+//!     black_level: [64; 4],
+//!     white_level: 1023,
+//!     raw: (0..8).map(|i| 100 * i).collect(),
+//!     camera_model: "camsim test".into(),
+//!     calibrations: vec![(Illuminant::D65, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])],
+//!     as_shot_neutral: Some([0.5, 1.0, 0.8]),
+//! };
+//! let bytes = dng.encode().unwrap();
+//! assert_eq!(Dng::decode(&bytes).unwrap(), dng);
+//! ```
+
+use std::path::Path;
+
+use isp_core::colour::Mat3;
+use isp_core::CfaPattern;
+
+/// A calibration illuminant by its EXIF LightSource code.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Illuminant {
+    /// Standard light A (code 17), 2856 K.
+    A,
+    /// D50 (code 23).
+    D50,
+    /// D55 (code 20).
+    D55,
+    /// D65 (code 21).
+    D65,
+    /// D75 (code 22).
+    D75,
+    /// Any other code, kept as read.
+    Other(u16),
+}
+
+impl Illuminant {
+    /// The EXIF LightSource code.
+    pub fn code(self) -> u16 {
+        match self {
+            Illuminant::A => 17,
+            Illuminant::D50 => 23,
+            Illuminant::D55 => 20,
+            Illuminant::D65 => 21,
+            Illuminant::D75 => 22,
+            Illuminant::Other(c) => c,
+        }
+    }
+
+    /// From an EXIF LightSource code.
+    pub fn from_code(code: u16) -> Self {
+        match code {
+            17 => Illuminant::A,
+            23 => Illuminant::D50,
+            20 => Illuminant::D55,
+            21 => Illuminant::D65,
+            22 => Illuminant::D75,
+            c => Illuminant::Other(c),
+        }
+    }
+
+    /// Correlated colour temperature in kelvin, for the codes that have one.
+    pub fn cct_k(self) -> Option<f64> {
+        match self {
+            Illuminant::A => Some(2856.0),
+            Illuminant::D50 => Some(5003.0),
+            Illuminant::D55 => Some(5503.0),
+            Illuminant::D65 => Some(6504.0),
+            Illuminant::D75 => Some(7504.0),
+            Illuminant::Other(_) => None,
+        }
+    }
+
+    /// By the name used on the command line and in [`crate::spectra::ILLUMINANTS`].
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "A" => Some(Illuminant::A),
+            "D50" => Some(Illuminant::D50),
+            "D55" => Some(Illuminant::D55),
+            "D65" => Some(Illuminant::D65),
+            "D75" => Some(Illuminant::D75),
+            _ => None,
+        }
+    }
+}
+
+/// A raw CFA frame with its colour metadata.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Dng {
+    /// Width in pixels.
+    pub width: usize,
+    /// Height in pixels.
+    pub height: usize,
+    /// CFA pattern.
+    pub pattern: CfaPattern,
+    /// Black level per 2x2 position, row by row.
+    pub black_level: [u16; 4],
+    /// White level.
+    pub white_level: u16,
+    /// Samples, row-major.
+    pub raw: Vec<u16>,
+    /// Make/model text (UniqueCameraModel).
+    pub camera_model: String,
+    /// One or two XYZ-to-camera matrices (DNG's ColorMatrix1/2) with their illuminants.
+    pub calibrations: Vec<(Illuminant, Mat3)>,
+    /// The white balance as shot: the illuminant's colour in camera RGB.
+    pub as_shot_neutral: Option<[f64; 3]>,
+}
+
+// Tags, by number (TIFF 6.0 and DNG 1.4).
+const NEW_SUBFILE_TYPE: u16 = 254;
+const IMAGE_WIDTH: u16 = 256;
+const IMAGE_LENGTH: u16 = 257;
+const BITS_PER_SAMPLE: u16 = 258;
+const COMPRESSION: u16 = 259;
+const PHOTOMETRIC: u16 = 262;
+const MAKE: u16 = 271;
+const MODEL: u16 = 272;
+const STRIP_OFFSETS: u16 = 273;
+const ORIENTATION: u16 = 274;
+const SAMPLES_PER_PIXEL: u16 = 277;
+const ROWS_PER_STRIP: u16 = 278;
+const STRIP_BYTE_COUNTS: u16 = 279;
+const PLANAR_CONFIGURATION: u16 = 284;
+const SOFTWARE: u16 = 305;
+const TILE_WIDTH: u16 = 322;
+const SUB_IFDS: u16 = 330;
+const CFA_REPEAT_PATTERN_DIM: u16 = 33421;
+const CFA_PATTERN: u16 = 33422;
+const DNG_VERSION: u16 = 50706;
+const DNG_BACKWARD_VERSION: u16 = 50707;
+const UNIQUE_CAMERA_MODEL: u16 = 50708;
+const BLACK_LEVEL_REPEAT_DIM: u16 = 50713;
+const BLACK_LEVEL: u16 = 50714;
+const WHITE_LEVEL: u16 = 50717;
+const COLOR_MATRIX_1: u16 = 50721;
+const COLOR_MATRIX_2: u16 = 50722;
+const AS_SHOT_NEUTRAL: u16 = 50728;
+const CALIBRATION_ILLUMINANT_1: u16 = 50778;
+const CALIBRATION_ILLUMINANT_2: u16 = 50779;
+
+const CFA_PHOTOMETRIC: u32 = 32803;
+
+// Field types.
+const BYTE: u16 = 1;
+const ASCII: u16 = 2;
+const SHORT: u16 = 3;
+const LONG: u16 = 4;
+const RATIONAL: u16 = 5;
+const SRATIONAL: u16 = 10;
+
+fn type_size(t: u16) -> Option<usize> {
+    match t {
+        1 | 2 | 6 | 7 => Some(1),
+        3 | 8 => Some(2),
+        4 | 9 | 11 | 13 => Some(4),
+        5 | 10 | 12 => Some(8),
+        _ => None,
+    }
+}
+
+/// An entry to write: tag, type, count and its bytes (little-endian).
+struct Entry {
+    tag: u16,
+    kind: u16,
+    count: u32,
+    bytes: Vec<u8>,
+}
+
+fn short(tag: u16, values: &[u16]) -> Entry {
+    Entry {
+        tag,
+        kind: SHORT,
+        count: values.len() as u32,
+        bytes: values.iter().flat_map(|v| v.to_le_bytes()).collect(),
+    }
+}
+
+fn long(tag: u16, values: &[u32]) -> Entry {
+    Entry {
+        tag,
+        kind: LONG,
+        count: values.len() as u32,
+        bytes: values.iter().flat_map(|v| v.to_le_bytes()).collect(),
+    }
+}
+
+fn bytes(tag: u16, values: &[u8]) -> Entry {
+    Entry {
+        tag,
+        kind: BYTE,
+        count: values.len() as u32,
+        bytes: values.to_vec(),
+    }
+}
+
+fn ascii(tag: u16, text: &str) -> Entry {
+    let mut b: Vec<u8> = text.bytes().filter(|c| *c != 0).collect();
+    b.push(0);
+    Entry {
+        tag,
+        kind: ASCII,
+        count: b.len() as u32,
+        bytes: b,
+    }
+}
+
+/// Rationals with denominator 10000 (four decimals, as Adobe's DNG files carry).
+fn srational(tag: u16, values: &[f64]) -> Entry {
+    Entry {
+        tag,
+        kind: SRATIONAL,
+        count: values.len() as u32,
+        bytes: values
+            .iter()
+            .flat_map(|v| {
+                let n = (v * 10000.0)
+                    .round()
+                    .clamp(i32::MIN as f64, i32::MAX as f64) as i32;
+                [n.to_le_bytes(), 10000i32.to_le_bytes()].concat()
+            })
+            .collect(),
+    }
+}
+
+fn rational(tag: u16, values: &[f64]) -> Entry {
+    Entry {
+        tag,
+        kind: RATIONAL,
+        count: values.len() as u32,
+        bytes: values
+            .iter()
+            .flat_map(|v| {
+                let n = (v * 1e6).round().clamp(0.0, u32::MAX as f64) as u32;
+                [n.to_le_bytes(), 1_000_000u32.to_le_bytes()].concat()
+            })
+            .collect(),
+    }
+}
+
+/// The CFA colour codes (0 red, 1 green, 2 blue) of a pattern's 2x2 block, row by row.
+fn cfa_codes(pattern: CfaPattern) -> [u8; 4] {
+    std::array::from_fn(|p| pattern.colour_at(p % 2, p / 2).index() as u8)
+}
+
+impl Dng {
+    /// Checks sizes and levels.
+    fn check(&self) -> Result<(), String> {
+        if self.width == 0 || self.height == 0 || self.width > 65535 || self.height > 65535 {
+            return Err(format!(
+                "DNG: size {} x {} outside 1..=65535",
+                self.width, self.height
+            ));
+        }
+        if self.raw.len() != self.width * self.height {
+            return Err(format!(
+                "DNG: {} samples for {} x {}",
+                self.raw.len(),
+                self.width,
+                self.height
+            ));
+        }
+        if self.black_level.iter().any(|b| *b >= self.white_level) {
+            return Err(format!(
+                "DNG: black level {:?} must be below the white level {}",
+                self.black_level, self.white_level
+            ));
+        }
+        if self.calibrations.len() > 2 {
+            return Err("DNG: at most two colour matrices".into());
+        }
+        Ok(())
+    }
+
+    /// The file's bytes.
+    pub fn encode(&self) -> Result<Vec<u8>, String> {
+        self.check()?;
+        let (w, h) = (self.width as u32, self.height as u32);
+        let strip_bytes = w as usize * h as usize * 2;
+        let model = if self.camera_model.is_empty() {
+            "camsim"
+        } else {
+            &self.camera_model
+        };
+        let mut entries = vec![
+            long(NEW_SUBFILE_TYPE, &[0]),
+            long(IMAGE_WIDTH, &[w]),
+            long(IMAGE_LENGTH, &[h]),
+            short(BITS_PER_SAMPLE, &[16]),
+            short(COMPRESSION, &[1]),
+            short(PHOTOMETRIC, &[CFA_PHOTOMETRIC as u16]),
+            ascii(MAKE, "camsim"),
+            ascii(MODEL, model),
+            long(STRIP_OFFSETS, &[0]), // patched below
+            short(ORIENTATION, &[1]),
+            short(SAMPLES_PER_PIXEL, &[1]),
+            long(ROWS_PER_STRIP, &[h]),
+            long(STRIP_BYTE_COUNTS, &[strip_bytes as u32]),
+            short(PLANAR_CONFIGURATION, &[1]),
+            ascii(SOFTWARE, concat!("camsim ", env!("CARGO_PKG_VERSION"))),
+            short(CFA_REPEAT_PATTERN_DIM, &[2, 2]),
+            bytes(CFA_PATTERN, &cfa_codes(self.pattern)),
+            bytes(DNG_VERSION, &[1, 4, 0, 0]),
+            bytes(DNG_BACKWARD_VERSION, &[1, 1, 0, 0]),
+            ascii(UNIQUE_CAMERA_MODEL, model),
+        ];
+        let black = self.black_level;
+        if black.iter().all(|b| *b == black[0]) {
+            entries.push(short(BLACK_LEVEL, &[black[0]]));
+        } else {
+            entries.push(short(BLACK_LEVEL_REPEAT_DIM, &[2, 2]));
+            entries.push(short(BLACK_LEVEL, &black));
+        }
+        entries.push(short(WHITE_LEVEL, &[self.white_level]));
+        let tags = [
+            (COLOR_MATRIX_1, CALIBRATION_ILLUMINANT_1),
+            (COLOR_MATRIX_2, CALIBRATION_ILLUMINANT_2),
+        ];
+        for ((illuminant, m), (matrix_tag, illuminant_tag)) in self.calibrations.iter().zip(tags) {
+            let flat: Vec<f64> = m.iter().flatten().copied().collect();
+            if !flat.iter().all(|v| v.is_finite()) {
+                return Err("DNG: colour matrix has a non-finite value".into());
+            }
+            entries.push(srational(matrix_tag, &flat));
+            entries.push(short(illuminant_tag, &[illuminant.code()]));
+        }
+        if let Some(n) = self.as_shot_neutral {
+            if !n.iter().all(|v| v.is_finite() && *v > 0.0) {
+                return Err(format!("DNG: as-shot neutral {n:?} must be positive"));
+            }
+            entries.push(rational(AS_SHOT_NEUTRAL, &n));
+        }
+        entries.sort_by_key(|e| e.tag);
+
+        // Layout: header, IFD, out-of-line values, then the strip.
+        let ifd_len = 2 + 12 * entries.len() + 4;
+        let mut out = Vec::with_capacity(8 + ifd_len + 256 + strip_bytes);
+        out.extend_from_slice(b"II*\0");
+        out.extend_from_slice(&8u32.to_le_bytes());
+        let mut extra_offset = 8 + ifd_len;
+        let extra_len: usize = entries
+            .iter()
+            .filter(|e| e.bytes.len() > 4)
+            .map(|e| e.bytes.len().next_multiple_of(2))
+            .sum();
+        let strip_offset = (extra_offset + extra_len) as u32;
+        for e in entries.iter_mut() {
+            if e.tag == STRIP_OFFSETS {
+                e.bytes = strip_offset.to_le_bytes().to_vec();
+            }
+        }
+        out.extend_from_slice(&(entries.len() as u16).to_le_bytes());
+        let mut extra = Vec::with_capacity(extra_len);
+        for e in &entries {
+            out.extend_from_slice(&e.tag.to_le_bytes());
+            out.extend_from_slice(&e.kind.to_le_bytes());
+            out.extend_from_slice(&e.count.to_le_bytes());
+            if e.bytes.len() <= 4 {
+                let mut inline = [0u8; 4];
+                inline[..e.bytes.len()].copy_from_slice(&e.bytes);
+                out.extend_from_slice(&inline);
+            } else {
+                out.extend_from_slice(&(extra_offset as u32).to_le_bytes());
+                extra.extend_from_slice(&e.bytes);
+                if e.bytes.len() % 2 == 1 {
+                    extra.push(0);
+                }
+                extra_offset += e.bytes.len().next_multiple_of(2);
+            }
+        }
+        out.extend_from_slice(&0u32.to_le_bytes()); // no next IFD
+        out.extend_from_slice(&extra);
+        debug_assert_eq!(out.len(), strip_offset as usize);
+        for v in &self.raw {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+        Ok(out)
+    }
+
+    /// Writes the file.
+    pub fn write(&self, path: &Path) -> Result<(), String> {
+        std::fs::write(path, self.encode()?).map_err(|e| format!("{}: {e}", path.display()))
+    }
+
+    /// Reads a file.
+    pub fn read(path: &Path) -> Result<Dng, String> {
+        let data = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        Dng::decode(&data).map_err(|e| format!("{}: {e}", path.display()))
+    }
+
+    /// Parses a file's bytes.
+    pub fn decode(data: &[u8]) -> Result<Dng, String> {
+        let file = Tiff::new(data)?;
+        let first = file.u32_at(4)? as usize;
+        let ifd0 = file.ifd(first)?;
+        if ifd0.get(DNG_VERSION).is_none() {
+            return Err("not a DNG (no DNGVersion tag)".into());
+        }
+        // The raw image: IFD 0 if it is the CFA image, else the SubIFD that is.
+        let mut raw_ifd = None;
+        if file.is_cfa_raw(&ifd0)? {
+            raw_ifd = Some(ifd0.clone());
+        } else if let Some(sub) = ifd0.get(SUB_IFDS) {
+            for offset in file.values(sub)?.into_iter().take(16) {
+                let ifd = file.ifd(offset as usize)?;
+                if file.is_cfa_raw(&ifd)? {
+                    raw_ifd = Some(ifd);
+                    break;
+                }
+            }
+        }
+        let raw_ifd = raw_ifd.ok_or(
+            "no CFA raw image (PhotometricInterpretation 32803, NewSubfileType 0) in IFD 0 or its SubIFDs; linear DNGs are not supported",
+        )?;
+        file.read_raw(&raw_ifd, &ifd0)
+    }
+}
+
+/// A parsed IFD: entries as (tag, type, count, value-or-offset field position).
+#[derive(Debug, Clone)]
+struct Ifd {
+    entries: Vec<(u16, u16, u32, usize)>,
+}
+
+impl Ifd {
+    fn get(&self, tag: u16) -> Option<(u16, u32, usize)> {
+        self.entries
+            .iter()
+            .find(|e| e.0 == tag)
+            .map(|&(_, t, c, p)| (t, c, p))
+    }
+}
+
+struct Tiff<'a> {
+    data: &'a [u8],
+    little: bool,
+}
+
+impl<'a> Tiff<'a> {
+    fn new(data: &'a [u8]) -> Result<Self, String> {
+        let little = match data.get(..4) {
+            Some(b"II*\0") => true,
+            Some(b"MM\0*") => false,
+            _ => return Err("not a TIFF/DNG file (bad header)".into()),
+        };
+        Ok(Self { data, little })
+    }
+
+    fn bytes(&self, at: usize, n: usize) -> Result<&'a [u8], String> {
+        at.checked_add(n)
+            .and_then(|end| self.data.get(at..end))
+            .ok_or_else(|| format!("truncated file: {n} bytes at offset {at} are past its end"))
+    }
+
+    fn u16_at(&self, at: usize) -> Result<u16, String> {
+        let b: [u8; 2] = self.bytes(at, 2)?.try_into().map_err(|_| "short read")?;
+        Ok(if self.little {
+            u16::from_le_bytes(b)
+        } else {
+            u16::from_be_bytes(b)
+        })
+    }
+
+    fn u32_at(&self, at: usize) -> Result<u32, String> {
+        let b: [u8; 4] = self.bytes(at, 4)?.try_into().map_err(|_| "short read")?;
+        Ok(if self.little {
+            u32::from_le_bytes(b)
+        } else {
+            u32::from_be_bytes(b)
+        })
+    }
+
+    fn ifd(&self, at: usize) -> Result<Ifd, String> {
+        let n = self.u16_at(at)? as usize;
+        let mut entries = Vec::with_capacity(n);
+        for i in 0..n {
+            let p = at + 2 + 12 * i;
+            entries.push((
+                self.u16_at(p)?,
+                self.u16_at(p + 2)?,
+                self.u32_at(p + 4)?,
+                p + 8,
+            ));
+        }
+        Ok(Ifd { entries })
+    }
+
+    /// Where an entry's values start.
+    fn value_offset(&self, kind: u16, count: u32, field: usize) -> Result<(usize, usize), String> {
+        let size = type_size(kind).ok_or(format!("unknown TIFF field type {kind}"))?;
+        let len = size
+            .checked_mul(count as usize)
+            .ok_or("TIFF field too long")?;
+        let at = if len <= 4 {
+            field
+        } else {
+            self.u32_at(field)? as usize
+        };
+        self.bytes(at, len)?;
+        Ok((at, size))
+    }
+
+    /// An entry's values as numbers (integers; rationals as numerator/denominator).
+    fn numbers(&self, entry: (u16, u32, usize)) -> Result<Vec<f64>, String> {
+        let (kind, count, field) = entry;
+        if count > 1 << 24 {
+            return Err(format!("TIFF field with {count} values is too long"));
+        }
+        let (at, size) = self.value_offset(kind, count, field)?;
+        (0..count as usize)
+            .map(|i| {
+                let p = at + i * size;
+                Ok(match kind {
+                    BYTE | 7 => self.data[p] as f64,
+                    6 => self.data[p] as i8 as f64,
+                    SHORT => self.u16_at(p)? as f64,
+                    8 => self.u16_at(p)? as i16 as f64,
+                    LONG | 13 => self.u32_at(p)? as f64,
+                    9 => self.u32_at(p)? as i32 as f64,
+                    RATIONAL => self.u32_at(p)? as f64 / self.u32_at(p + 4)? as f64,
+                    SRATIONAL => self.u32_at(p)? as i32 as f64 / self.u32_at(p + 4)? as i32 as f64,
+                    11 => f32::from_bits(self.u32_at(p)?) as f64,
+                    _ => return Err(format!("TIFF field type {kind} is not a number")),
+                })
+            })
+            .collect()
+    }
+
+    fn values(&self, entry: (u16, u32, usize)) -> Result<Vec<u32>, String> {
+        Ok(self
+            .numbers(entry)?
+            .into_iter()
+            .map(|v| v.clamp(0.0, u32::MAX as f64) as u32)
+            .collect())
+    }
+
+    fn one(&self, ifd: &Ifd, tag: u16, name: &str) -> Result<u32, String> {
+        let entry = ifd.get(tag).ok_or(format!("missing {name} tag ({tag})"))?;
+        self.values(entry)?
+            .first()
+            .copied()
+            .ok_or(format!("{name} tag ({tag}) has no value"))
+    }
+
+    fn text(&self, ifd: &Ifd, tag: u16) -> Option<String> {
+        let (kind, count, field) = ifd.get(tag)?;
+        if kind != ASCII {
+            return None;
+        }
+        let (at, _) = self.value_offset(kind, count, field).ok()?;
+        let b = &self.data[at..at + count as usize];
+        let end = b.iter().position(|c| *c == 0).unwrap_or(b.len());
+        Some(String::from_utf8_lossy(&b[..end]).into_owned())
+    }
+
+    fn is_cfa_raw(&self, ifd: &Ifd) -> Result<bool, String> {
+        let subfile = ifd
+            .get(NEW_SUBFILE_TYPE)
+            .map(|e| self.values(e))
+            .transpose()?
+            .and_then(|v| v.first().copied())
+            .unwrap_or(0);
+        let photometric = ifd
+            .get(PHOTOMETRIC)
+            .map(|e| self.values(e))
+            .transpose()?
+            .and_then(|v| v.first().copied());
+        Ok(subfile == 0 && photometric == Some(CFA_PHOTOMETRIC))
+    }
+
+    fn read_raw(&self, ifd: &Ifd, ifd0: &Ifd) -> Result<Dng, String> {
+        let width = self.one(ifd, IMAGE_WIDTH, "ImageWidth")? as usize;
+        let height = self.one(ifd, IMAGE_LENGTH, "ImageLength")? as usize;
+        if width == 0 || height == 0 || width > 65535 || height > 65535 {
+            return Err(format!("image size {width} x {height} outside 1..=65535"));
+        }
+        let bits = self.one(ifd, BITS_PER_SAMPLE, "BitsPerSample")?;
+        if bits != 8 && bits != 16 {
+            return Err(format!(
+                "{bits}-bit samples are not supported (8 and 16 are)"
+            ));
+        }
+        let compression = ifd
+            .get(COMPRESSION)
+            .map(|e| self.values(e))
+            .transpose()?
+            .and_then(|v| v.first().copied())
+            .unwrap_or(1);
+        if compression != 1 {
+            return Err(format!(
+                "compression {compression} is not supported, only uncompressed (1); convert with Adobe DNG Converter's uncompressed option"
+            ));
+        }
+        if ifd.get(TILE_WIDTH).is_some() {
+            return Err("tiled DNGs are not supported, only strips".into());
+        }
+        let samples = ifd
+            .get(SAMPLES_PER_PIXEL)
+            .map(|e| self.values(e))
+            .transpose()?
+            .and_then(|v| v.first().copied())
+            .unwrap_or(1);
+        if samples != 1 {
+            return Err(format!("{samples} samples per pixel; a CFA image has 1"));
+        }
+        let dim = ifd
+            .get(CFA_REPEAT_PATTERN_DIM)
+            .map(|e| self.values(e))
+            .transpose()?
+            .unwrap_or(vec![2, 2]);
+        if dim != [2, 2] {
+            return Err(format!(
+                "CFA repeat pattern {dim:?} is not supported, only 2x2"
+            ));
+        }
+        let codes = self.values(ifd.get(CFA_PATTERN).ok_or("missing CFAPattern tag")?)?;
+        let pattern = [
+            CfaPattern::Rggb,
+            CfaPattern::Bggr,
+            CfaPattern::Grbg,
+            CfaPattern::Gbrg,
+        ]
+        .into_iter()
+        .find(|p| {
+            cfa_codes(*p)
+                .iter()
+                .map(|c| *c as u32)
+                .eq(codes.iter().copied())
+        })
+        .ok_or(format!(
+            "CFA pattern {codes:?} is not a Bayer pattern of R (0), G (1), B (2)"
+        ))?;
+
+        let offsets = self.values(ifd.get(STRIP_OFFSETS).ok_or("missing StripOffsets tag")?)?;
+        let counts = self.values(
+            ifd.get(STRIP_BYTE_COUNTS)
+                .ok_or("missing StripByteCounts tag")?,
+        )?;
+        if offsets.len() != counts.len() {
+            return Err("StripOffsets and StripByteCounts differ in length".into());
+        }
+        let bytes_per_sample = bits as usize / 8;
+        let needed = width * height * bytes_per_sample;
+        // Capacity bounded by the file: a damaged size cannot ask for gigabytes.
+        let mut pixels = Vec::with_capacity(needed.min(self.data.len()));
+        for (o, c) in offsets.iter().zip(&counts) {
+            pixels.extend_from_slice(self.bytes(*o as usize, *c as usize)?);
+            if pixels.len() >= needed {
+                break;
+            }
+        }
+        if pixels.len() < needed {
+            return Err(format!(
+                "the strips hold {} bytes, {width} x {height} {bits}-bit samples need {needed}",
+                pixels.len()
+            ));
+        }
+        let raw: Vec<u16> = if bits == 8 {
+            pixels[..needed].iter().map(|v| *v as u16).collect()
+        } else {
+            pixels[..needed]
+                .chunks_exact(2)
+                .map(|b| {
+                    if self.little {
+                        u16::from_le_bytes([b[0], b[1]])
+                    } else {
+                        u16::from_be_bytes([b[0], b[1]])
+                    }
+                })
+                .collect()
+        };
+
+        let max = if bits == 8 { 255 } else { 65535 };
+        let white = match ifd.get(WHITE_LEVEL) {
+            Some(e) => self
+                .numbers(e)?
+                .first()
+                .copied()
+                .ok_or("WhiteLevel has no value")?,
+            None => max as f64,
+        };
+        let black_values = match ifd.get(BLACK_LEVEL) {
+            Some(e) => self.numbers(e)?,
+            None => vec![0.0],
+        };
+        let black: [f64; 4] = match black_values.len() {
+            1 => [black_values[0]; 4],
+            4 => std::array::from_fn(|i| black_values[i]),
+            n => {
+                return Err(format!(
+                    "BlackLevel with {n} values is not supported (1, or 4 for a 2x2 repeat)"
+                ))
+            }
+        };
+        let level = |v: f64, name: &str| -> Result<u16, String> {
+            if v.is_finite() && (0.0..=max as f64).contains(&v) {
+                Ok(v.round() as u16)
+            } else {
+                Err(format!("{name} {v} is outside 0..={max}"))
+            }
+        };
+        let white_level = level(white, "WhiteLevel")?;
+        let mut black_level = [0u16; 4];
+        for (b, v) in black_level.iter_mut().zip(black) {
+            *b = level(v, "BlackLevel")?;
+        }
+        if black_level.iter().any(|b| *b >= white_level) {
+            return Err(format!(
+                "BlackLevel {black_level:?} is not below WhiteLevel {white_level}"
+            ));
+        }
+
+        // Colour tags live in IFD 0.
+        let mut calibrations = Vec::new();
+        for (matrix_tag, illuminant_tag) in [
+            (COLOR_MATRIX_1, CALIBRATION_ILLUMINANT_1),
+            (COLOR_MATRIX_2, CALIBRATION_ILLUMINANT_2),
+        ] {
+            if let Some(e) = ifd0.get(matrix_tag) {
+                let v = self.numbers(e)?;
+                if v.len() != 9 || !v.iter().all(|x| x.is_finite()) {
+                    return Err(format!(
+                        "ColorMatrix tag {matrix_tag} must hold 9 finite values (3-channel CFA)"
+                    ));
+                }
+                let illuminant = ifd0
+                    .get(illuminant_tag)
+                    .map(|e| self.values(e))
+                    .transpose()?
+                    .and_then(|v| v.first().copied())
+                    .unwrap_or(0);
+                let m: Mat3 = std::array::from_fn(|i| std::array::from_fn(|j| v[3 * i + j]));
+                calibrations.push((Illuminant::from_code(illuminant as u16), m));
+            }
+        }
+        let as_shot_neutral = match ifd0.get(AS_SHOT_NEUTRAL) {
+            Some(e) => {
+                let v = self.numbers(e)?;
+                if v.len() != 3 || !v.iter().all(|x| x.is_finite() && *x > 0.0) {
+                    return Err("AsShotNeutral must hold 3 positive values".into());
+                }
+                Some([v[0], v[1], v[2]])
+            }
+            None => None,
+        };
+        let camera_model = self
+            .text(ifd0, UNIQUE_CAMERA_MODEL)
+            .or_else(|| self.text(ifd0, MODEL))
+            .unwrap_or_default();
+        Ok(Dng {
+            width,
+            height,
+            pattern,
+            black_level,
+            white_level,
+            raw,
+            camera_model,
+            calibrations,
+            as_shot_neutral,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> Dng {
+        Dng {
+            width: 5,
+            height: 3,
+            pattern: CfaPattern::Bggr,
+            black_level: [10, 11, 12, 13],
+            white_level: 4095,
+            raw: (0..15).map(|i| i * 200).collect(),
+            camera_model: "camsim nikon-5100".into(),
+            calibrations: vec![
+                (
+                    Illuminant::A,
+                    [[0.9, -0.2, 0.1], [-0.3, 1.2, 0.05], [0.0, 0.1, 0.7]],
+                ),
+                (
+                    Illuminant::D65,
+                    [[1.1, -0.4, 0.0], [-0.5, 1.3, 0.2], [-0.1, 0.2, 0.9]],
+                ),
+            ],
+            as_shot_neutral: Some([0.45, 1.0, 0.7]),
+        }
+    }
+
+    #[test]
+    fn round_trip() {
+        let d = sample();
+        let bytes = d.encode().unwrap();
+        let back = Dng::decode(&bytes).unwrap();
+        assert_eq!(back.raw, d.raw);
+        assert_eq!(back.black_level, d.black_level);
+        assert_eq!(back.pattern, d.pattern);
+        assert_eq!(back.calibrations[1].0, Illuminant::D65);
+        assert!((back.calibrations[1].1[1][1] - 1.3).abs() < 1e-4);
+        assert!((back.as_shot_neutral.unwrap()[0] - 0.45).abs() < 1e-6);
+    }
+
+    #[test]
+    fn every_truncation_is_an_error() {
+        let bytes = sample().encode().unwrap();
+        for n in 0..bytes.len() {
+            assert!(Dng::decode(&bytes[..n]).is_err(), "{n}");
+        }
+    }
+
+    #[test]
+    fn damaged_bytes_never_panic() {
+        let bytes = sample().encode().unwrap();
+        let mut rng = crate::tracer::sampling::Rng::new(3, 3);
+        for _ in 0..20000 {
+            let mut b = bytes.clone();
+            for _ in 0..1 + rng.next_u32() % 4 {
+                let i = rng.next_u32() as usize % b.len();
+                b[i] = rng.next_u32() as u8;
+            }
+            let _ = Dng::decode(&b);
+        }
+    }
+}

@@ -1,0 +1,145 @@
+//! Property: the DNG writer's files open in LibRaw (through rawpy) with the same raw samples,
+//! CFA pattern, black and white levels, colour matrix and as-shot white balance, for random
+//! sizes, patterns, bit depths and levels. LibRaw refuses frames below 22 x 22, so sizes start
+//! there.
+
+use camsim_tests::oracle::oracle_arrays;
+use host_tracer::dng::{Dng, Illuminant};
+use isp_core::colour::{mat3_inverse, mat3_mul, Mat3, LINEAR_SRGB_TO_XYZ};
+use isp_core::CfaPattern;
+use proptest::prelude::*;
+
+const PATTERNS: [CfaPattern; 4] = [
+    CfaPattern::Rggb,
+    CfaPattern::Bggr,
+    CfaPattern::Grbg,
+    CfaPattern::Gbrg,
+];
+
+/// LibRaw's camera-to-sRGB matrix from a DNG's XYZ-to-camera ColorMatrix: rows of
+/// `ColorMatrix * sRGB_to_XYZ` normalised to sum 1, inverted (dcraw's `cam_xyz_coeff`, with
+/// its sRGB-to-XYZ constants).
+fn libraw_rgb_cam(color_matrix: &Mat3) -> Mat3 {
+    const XYZ_RGB: Mat3 = [
+        [0.412453, 0.357580, 0.180423],
+        [0.212671, 0.715160, 0.072169],
+        [0.019334, 0.119193, 0.950227],
+    ];
+    let mut cam_rgb = mat3_mul(color_matrix, &XYZ_RGB);
+    for row in cam_rgb.iter_mut() {
+        let sum: f64 = row.iter().sum();
+        row.iter_mut().for_each(|v| *v /= sum);
+    }
+    mat3_inverse(&cam_rgb).unwrap()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    #[test]
+    fn libraw_reads_what_camsim_writes(
+        width in 22usize..70,
+        height in 22usize..70,
+        pattern in 0usize..4,
+        bits in 10u8..=16,
+        black in proptest::array::uniform4(0u16..200),
+        same_black in any::<bool>(),
+        seed in any::<u64>(),
+        two_matrices in any::<bool>(),
+        neutral in proptest::array::uniform3(0.2f64..1.0),
+        jitter in proptest::array::uniform9(-0.05f64..0.05),
+    ) {
+        let white = ((1u32 << bits) - 1) as u16;
+        let black = if same_black { [black[0]; 4] } else { black };
+        let mut state = seed | 1;
+        let raw: Vec<u16> = (0..width * height)
+            .map(|_| {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                (state % (white as u64 + 1)) as u16
+            })
+            .collect();
+        // A plausible XYZ-to-camera matrix: sRGB's, perturbed.
+        let d65: Mat3 = {
+            let m = mat3_inverse(&LINEAR_SRGB_TO_XYZ).unwrap();
+            std::array::from_fn(|i| std::array::from_fn(|j| m[i][j] + jitter[3 * i + j]))
+        };
+        let mut calibrations = vec![(Illuminant::D65, d65)];
+        if two_matrices {
+            let a: Mat3 = std::array::from_fn(|i| std::array::from_fn(|j| d65[i][j] * 0.9));
+            calibrations.insert(0, (Illuminant::A, a));
+        }
+        let dng = Dng {
+            width,
+            height,
+            pattern: PATTERNS[pattern],
+            black_level: black,
+            white_level: white,
+            raw,
+            camera_model: "camsim oracle test".into(),
+            calibrations,
+            as_shot_neutral: Some([neutral[0], 1.0, neutral[2]]),
+        };
+        let path = std::env::temp_dir().join(format!("camsim-oracle-{}-{seed}.dng", std::process::id()));
+        dng.write(&path).unwrap();
+        let reply = oracle_arrays("rawpy_read", serde_json::json!({"path": path.to_str().unwrap()}), &[]);
+        std::fs::remove_file(&path).ok();
+        let Some(arrays) = reply else { return Ok(()) };
+
+        let samples: Vec<u16> = arrays[0].to_f64().iter().map(|v| *v as u16).collect();
+        prop_assert_eq!(arrays[0].shape(), &[height, width]);
+        prop_assert!(samples == dng.raw, "raw samples differ");
+        // LibRaw's colour indices: 0 R, 1 G, 2 B, 3 the second G.
+        let libraw_pattern: Vec<usize> = arrays[1].to_f64().iter().map(|v| *v as usize).collect();
+        let ours: Vec<usize> = (0..4).map(|p| PATTERNS[pattern].colour_at(p % 2, p / 2).index()).collect();
+        let theirs: Vec<usize> = libraw_pattern.iter().map(|c| if *c == 3 { 1 } else { *c }).collect();
+        prop_assert_eq!(&theirs, &ours);
+        let black_per_channel = arrays[2].to_f64();
+        for p in 0..4 {
+            prop_assert_eq!(black_per_channel[libraw_pattern[p]], black[p] as f64, "position {}", p);
+        }
+        let rgb_cam = arrays[3].to_f64();
+        let expected = libraw_rgb_cam(&d65);
+        for i in 0..9 {
+            prop_assert!((rgb_cam[i] - expected[i / 3][i % 3]).abs() < 1e-3,
+                "colour matrix {}: {} vs {}", i, rgb_cam[i], expected[i / 3][i % 3]);
+        }
+        let wb = arrays[4].to_f64();
+        for c in 0..3 {
+            let n = [neutral[0], 1.0, neutral[2]][c];
+            prop_assert!((wb[c] * n - 1.0).abs() < 1e-4, "white balance {}: {} vs 1/{}", c, wb[c], n);
+        }
+    }
+}
+
+/// The white level LibRaw reports (values above are clipped by raw converters).
+#[test]
+fn libraw_white_level() {
+    let dng = Dng {
+        width: 24,
+        height: 24,
+        pattern: CfaPattern::Rggb,
+        black_level: [256; 4],
+        white_level: 4095,
+        raw: vec![1000; 576],
+        camera_model: "camsim".into(),
+        calibrations: vec![],
+        as_shot_neutral: None,
+    };
+    let path = std::env::temp_dir().join(format!("camsim-white-{}.dng", std::process::id()));
+    dng.write(&path).unwrap();
+    let reply = camsim_tests::oracle::with_oracle(|o| {
+        o.call(
+            "rawpy_read",
+            serde_json::json!({"path": path.to_str().unwrap()}),
+            &[],
+        )
+    });
+    std::fs::remove_file(&path).ok();
+    if let Some(reply) = reply {
+        let reply = reply.unwrap();
+        assert_eq!(reply.values["white_level"], 4095);
+        assert_eq!(reply.values["color_desc"], "RGBG");
+    }
+}
