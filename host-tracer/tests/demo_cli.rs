@@ -2,28 +2,10 @@
 //! the demo promises, a report whose figures are plausible, a DNG that reads back, and errors
 //! that say what to do.
 
-use std::path::PathBuf;
-use std::process::Command;
+mod common;
+use common::{camsim, temp_dir};
 
 use host_tracer::dng::Dng;
-
-fn camsim(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_camsim"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("camsim-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 #[test]
 fn demo_writes_every_file_and_a_plausible_report() {

@@ -1,20 +1,9 @@
 //! `camsim isp` as a user runs it: files in and out, the printed report, clear errors.
 
-use std::process::Command;
+mod common;
+use common::camsim;
 
 use host_tracer::imageio::{self, Image};
-
-fn camsim(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_camsim"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
 
 #[test]
 fn isp_writes_an_srgb_image_and_reports_stages_and_times() {

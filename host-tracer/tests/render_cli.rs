@@ -2,30 +2,13 @@
 //! written (EXR read back by an independent reader, the `exr` crate), and errors that name the
 //! file, the line and the field.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
+use common::{camsim, temp_dir};
+use std::path::Path;
 
 use host_tracer::tracer::geometry::Shape;
 use host_tracer::tracer::scene::Colour;
 use host_tracer::tracer::scene_file::{load, parse};
-
-fn camsim(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_camsim"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("camsim-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 fn read_exr(path: &Path) -> (usize, usize, Vec<[f32; 3]>) {
     use exr::prelude::*;
