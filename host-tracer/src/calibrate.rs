@@ -161,11 +161,8 @@ pub fn calibrate(camera: &str, illuminant: &str) -> Result<Calibrated, String> {
     })
 }
 
-/// The illuminant's XYZ (Y = 1) and its colour in camera RGB (green 1), on the tracer's bands.
-pub fn illuminant_colour(
-    illuminant: &str,
-    response: &Response,
-) -> Result<([f64; 3], [f64; 3]), String> {
+/// An illuminant of [`crate::spectra::ILLUMINANTS`] on the tracer's bands (unnormalised).
+pub fn illuminant_bands(illuminant: &str) -> Result<[f32; BANDS], String> {
     let table = Table::parse(crate::spectra::ILLUMINANTS)?;
     let spd = table.column(illuminant).ok_or_else(|| {
         format!(
@@ -173,14 +170,27 @@ pub fn illuminant_colour(
             table.names().join(", ")
         )
     })?;
-    let bands = crate::tracer::color::bands_from_grid(spd);
-    let weights = xyz_weights();
+    Ok(crate::tracer::color::bands_from_grid(spd))
+}
+
+/// CIE XYZ of a band spectrum (the tracer's weights: constant 1 has `Y = 1`).
+pub fn bands_xyz(bands: &[f32; BANDS]) -> [f64; 3] {
     let mut xyz = [0.0f64; 3];
-    for (b, w) in bands.iter().zip(&weights) {
+    for (b, w) in bands.iter().zip(&xyz_weights()) {
         for k in 0..3 {
             xyz[k] += (*b * w[k]) as f64;
         }
     }
+    xyz
+}
+
+/// The illuminant's XYZ (Y = 1) and its colour in camera RGB (green 1), on the tracer's bands.
+pub fn illuminant_colour(
+    illuminant: &str,
+    response: &Response,
+) -> Result<([f64; 3], [f64; 3]), String> {
+    let bands = illuminant_bands(illuminant)?;
+    let xyz = bands_xyz(&bands);
     let rgb = response.of_bands(&bands).map(|v| v as f64);
     if !(xyz[1] > 0.0 && rgb[1] > 0.0) {
         return Err(format!("illuminant {illuminant}: no light in 400..700 nm"));

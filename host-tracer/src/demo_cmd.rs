@@ -229,17 +229,10 @@ fn calibration_for(args: &DemoArgs) -> Result<(Vec<(Illuminant, Mat3)>, Calibrat
     // DNG's ColorMatrix: XYZ to camera, scaled so the illuminant's white has a largest
     // camera channel of 1 (Adobe's convention).
     let mut dng = Vec::new();
-    for (name, cct, m) in &entries {
+    for (name, _, m) in &entries {
         let illuminant = Illuminant::from_name(name).unwrap_or(Illuminant::Other(0));
         let xyz_to_camera = colour::mat3_inverse(m).map_err(|e| e.to_string())?;
-        let white = colour::cct_to_xy_daylight(cct.clamp(4000.0, 25000.0))
-            .and_then(colour::xy_to_xyz)
-            .map_err(|e| e.to_string())?;
-        let white = if illuminant == Illuminant::A {
-            colour::xy_to_xyz([0.44757, 0.40745]).map_err(|e| e.to_string())?
-        } else {
-            white
-        };
+        let white = calibrate::bands_xyz(&calibrate::illuminant_bands(name)?);
         let cam = colour::mat3_mul_vec(&xyz_to_camera, white);
         let peak = cam.iter().copied().fold(0.0, f64::max);
         let scaled = xyz_to_camera.map(|r| r.map(|v| v / peak.max(1e-12)));
@@ -457,18 +450,9 @@ pub fn run(args: &DemoArgs) -> Result<String, String> {
     // The truth's scale: a neutral under the scene illuminant with camera green g (in ISP
     // units) comes out of a perfect ISP with luminance g.
     let green_per_luminance = if spectral {
-        let table = crate::spectra::Table::parse(crate::spectra::ILLUMINANTS)?;
-        let spd = table
-            .column(&args.illuminant)
-            .ok_or_else(|| format!("--illuminant: unknown {:?}", args.illuminant))?;
-        let bands = crate::tracer::color::bands_from_grid(spd);
-        let weights = crate::tracer::color::xyz_weights();
-        let y: f64 = bands
-            .iter()
-            .zip(&weights)
-            .map(|(b, w)| (*b * w[1]) as f64)
-            .sum();
-        response.of_bands(&bands)[1] as f64 / y
+        let bands = calibrate::illuminant_bands(&args.illuminant)
+            .map_err(|e| format!("--illuminant: {e}"))?;
+        response.of_bands(&bands)[1] as f64 / calibrate::bands_xyz(&bands)[1]
     } else {
         1.0
     };
