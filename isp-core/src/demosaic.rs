@@ -38,6 +38,8 @@
 use crate::frame::{MosaicView, RgbViewMut, Sample};
 use crate::{CfaColour, CfaPattern, IspError};
 
+pub mod directional;
+
 /// How demosaicing treats pixels whose neighbourhood crosses the frame edge.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Border {

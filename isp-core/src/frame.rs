@@ -19,6 +19,11 @@ pub trait Sample: Copy + Default + PartialEq + core::fmt::Debug + 'static {
     fn scaled_down(acc: Self::Acc, shift: u32) -> Self;
     /// The mean of `n >= 1` samples whose sum is `acc`, rounded half up for integers.
     fn mean(acc: Self::Acc, n: u32) -> Self;
+    /// The sample as a fraction of full scale, in `[0, 1]` (for float kernels on any sample).
+    fn to_unit(self) -> f32;
+    /// From a fraction of full scale: for integers rounded half up; clamped to the sample's
+    /// range, NaN to 0.
+    fn from_unit(v: f32) -> Self;
 }
 
 /// An integer sample: `u8` or `u16`.
@@ -48,6 +53,15 @@ macro_rules! int_sample {
             fn mean(acc: i32, n: u32) -> Self {
                 let n = n.max(1) as i32;
                 ((acc.max(0) + n / 2) / n).min(<$t>::MAX as i32) as $t
+            }
+            #[inline]
+            fn to_unit(self) -> f32 {
+                self as f32 * (1.0 / <$t>::MAX as f32)
+            }
+            #[inline]
+            fn from_unit(v: f32) -> Self {
+                // `as` saturates and maps NaN to 0.
+                (v * <$t>::MAX as f32 + 0.5) as $t
             }
         }
 
@@ -82,6 +96,14 @@ impl Sample for f32 {
     #[inline]
     fn mean(acc: f32, n: u32) -> f32 {
         clamp01(acc / n.max(1) as f32)
+    }
+    #[inline]
+    fn to_unit(self) -> f32 {
+        clamp01(self)
+    }
+    #[inline]
+    fn from_unit(v: f32) -> f32 {
+        clamp01(v)
     }
 }
 
