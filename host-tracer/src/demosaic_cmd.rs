@@ -12,11 +12,6 @@ use serde_json::{json, Value};
 
 use crate::imageio::{self, Image};
 
-/// Output rows per band of the directional method: its scratch is about 12 planes of
-/// `(band + 24) x (width + 24)` f32, so 64 rows hold 9 MB at 2048 wide and recompute 24 halo
-/// rows per 64.
-const DIRECTIONAL_BAND_ROWS: usize = 64;
-
 /// A demosaicing method of isp-core.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Method {
@@ -81,8 +76,8 @@ impl Method {
             Method::BilinearOpenCv => bilinear(&mosaic, Border::OpenCv, &mut view),
             Method::Mhc => mhc(&mosaic, &mut view),
             Method::Directional => {
-                let len = scratch_len(w, DIRECTIONAL_BAND_ROWS.min(h))
-                    .ok_or_else(|| format!("a {w}-pixel-wide frame is too wide"))?;
+                let len =
+                    scratch_len(w).ok_or_else(|| format!("a {w}-pixel-wide frame is too wide"))?;
                 let mut scratch = vec![0f32; len];
                 directional(&mosaic, &mut view, &mut scratch)
             }

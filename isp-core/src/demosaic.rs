@@ -17,6 +17,11 @@
 //!
 //! **Nearest** ([`nearest`]) is the 2x2 superpixel preview.
 //!
+//! **Directional** ([`directional::directional`]) is the high-quality method: directional
+//! colour differences with gradient weights, computed in `f32` over ring buffers of 16 rows in
+//! caller scratch (see its module). It needs an 11-pixel window, so it is a whole-frame function
+//! rather than a [`Method`] of the 5-row streaming [`row`].
+//!
 //! Every method works on `u8` and `u16` (integer arithmetic) and on `f32` in `[0, 1]` (the
 //! same filters, exact division, clamped to `[0, 1]`): see [`Sample`].
 //!

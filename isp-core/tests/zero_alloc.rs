@@ -32,8 +32,12 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
+/// The counter is global: tests that read it take turns.
+static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 #[test]
 fn full_pipeline_run_allocates_nothing() {
+    let _turn = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let (w, h) = (64, 48);
     let data: Vec<u16> = (0..w * h).map(|i| ((i * 7919) % 4096) as u16).collect();
     let gains = vec![5000u16; 5 * 4 * 4];
@@ -120,4 +124,22 @@ fn full_pipeline_run_allocates_nothing() {
     assert_eq!(after - before, 0, "the pipeline allocated");
     // The run did something.
     assert!(out8.iter().any(|v| *v > 0) && out16.iter().any(|v| *v > 0));
+}
+
+/// The directional demosaic works in the caller's scratch alone.
+#[test]
+fn directional_demosaic_allocates_nothing() {
+    let _turn = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    use isp_core::demosaic::directional::{directional, scratch_len};
+    use isp_core::frame::MosaicView;
+    let (w, h) = (40, 30);
+    let data: Vec<u16> = (0..w * h).map(|i| ((i * 7919) % 65536) as u16).collect();
+    let mut rgb = vec![0u16; 3 * w * h];
+    let mut scratch = vec![0f32; scratch_len(w).unwrap()];
+    let mosaic = MosaicView::new(&data, w, h, w, CfaPattern::Gbrg).unwrap();
+    let mut out = RgbViewMut::new(&mut rgb, w, h, 3 * w).unwrap();
+    let before = ALLOCATIONS.load(Ordering::SeqCst);
+    directional(&mosaic, &mut out, &mut scratch).unwrap();
+    assert_eq!(ALLOCATIONS.load(Ordering::SeqCst), before);
+    assert!(rgb.iter().any(|v| *v != 0));
 }

@@ -33,16 +33,23 @@
 //! outputs saturate. The window reaches 11 pixels out; frames 1 pixel wide or high use
 //! bilinear's line rule (see the parent module).
 //!
-//! Scratch: [`scratch_len`] samples for a band of `band_rows` output rows. A bigger band
-//! recomputes less halo: 24 halo rows per band.
+//! **Streaming.** Each stage runs one row at a time, a fixed number of rows behind the stage it
+//! reads, over ring buffers of 16 rows per intermediate plane: [`scratch_len`]`(width)` samples
+//! in all (12 planes), about 1.6 MB for a 2048-pixel-wide frame and independent of the height.
+//! Each stage computes every pixel of its row and selects by CFA colour, so the inner loops have
+//! no branches and vectorise.
 
 use super::{reflect, same_size, Method};
 use crate::frame::{MosaicView, RgbViewMut, Sample};
 use crate::{CfaColour, CfaPattern, IspError};
 
-/// Rows and columns of context computed around each band (even, so parity is unchanged).
+/// Rows and columns of context outside the frame (even, so padded coordinates keep the
+/// frame's CFA parity).
 pub const HALO: usize = 12;
-/// Planes of scratch per band.
+/// Rows held per plane: the longest distance between a row's production and its last reader
+/// is 14 rows (the red and blue planes).
+const RING: usize = 16;
+/// Intermediate planes.
 const PLANES: usize = 12;
 /// Floor of the one-sided gradients, in units of full scale.
 const EPS: f32 = 1e-5;
@@ -51,28 +58,24 @@ const TINY: f32 = 1e-20;
 /// One-sided smoothing of the colour differences, centre first.
 const SMOOTH: [f32; 4] = [0.56, 0.35, 0.08, 0.01];
 
-/// Scratch samples [`directional`] needs to process a frame `width` wide in bands of
-/// `band_rows` output rows; `None` on overflow.
+/// Scratch samples [`directional`] needs for a frame `width` pixels wide; `None` on overflow.
 ///
 /// ```
 /// use isp_core::demosaic::directional::{scratch_len, HALO};
-/// assert_eq!(scratch_len(100, 8), Some(12 * (8 + 2 * HALO) * (100 + 2 * HALO)));
+/// assert_eq!(scratch_len(100), Some(12 * 16 * (100 + 2 * HALO)));
 /// ```
-pub const fn scratch_len(width: usize, band_rows: usize) -> Option<usize> {
-    let Some(rows) = band_rows.checked_add(2 * HALO) else {
-        return None;
-    };
+pub const fn scratch_len(width: usize) -> Option<usize> {
     let Some(cols) = width.checked_add(2 * HALO) else {
         return None;
     };
-    let Some(plane) = rows.checked_mul(cols) else {
+    let Some(plane) = cols.checked_mul(RING) else {
         return None;
     };
     plane.checked_mul(PLANES)
 }
 
 /// Demosaics `input` into `output` (same size) with the directional method, using `scratch`
-/// (at least [`scratch_len`]`(width, 1)` samples; the band height is whatever fits).
+/// (at least [`scratch_len`]`(width)` samples).
 ///
 /// ```
 /// use isp_core::demosaic::directional::{directional, scratch_len};
@@ -82,7 +85,7 @@ pub const fn scratch_len(width: usize, band_rows: usize) -> Option<usize> {
 /// let mosaic = MosaicView::new(&flat, 8, 8, 8, CfaPattern::Grbg).unwrap();
 /// let mut rgb = [0u16; 192];
 /// let mut out = RgbViewMut::new(&mut rgb, 8, 8, 24).unwrap();
-/// let mut scratch = vec![0f32; scratch_len(8, 8).unwrap()];
+/// let mut scratch = vec![0f32; scratch_len(8).unwrap()];
 /// directional(&mosaic, &mut out, &mut scratch).unwrap();
 /// assert!(rgb.iter().all(|v| *v == 1000)); // a flat field stays flat
 /// ```
@@ -95,35 +98,59 @@ pub fn directional<T: Sample>(
     if w < 2 || h < 2 {
         return super::demosaic(Method::Bilinear, input, output);
     }
-    let pw = w + 2 * HALO;
-    let fits = scratch.len() / (PLANES * pw);
-    if fits <= 2 * HALO {
+    let needed = scratch_len(w).ok_or(IspError::InvalidParameter {
+        name: "width",
+        allowed: "small enough that scratch_len(width) fits in usize",
+    })?;
+    if scratch.len() < needed {
         return Err(IspError::InvalidParameter {
             name: "scratch",
-            allowed: "at least scratch_len(width, 1) samples",
+            allowed: "at least scratch_len(width) samples",
         });
     }
-    let band = (fits - 2 * HALO).min(h);
-    let plane_len = (band + 2 * HALO) * pw;
-    let mut y0 = 0;
-    while y0 < h {
-        let rows = band.min(h - y0);
-        let planes = Planes::split(&mut scratch[..PLANES * plane_len], plane_len);
-        let geometry = Band {
-            y0,
-            rows,
-            w,
-            h,
-            pw,
-            pattern: input.pattern(),
+    let pw = w + 2 * HALO;
+    let frame = Frame {
+        w,
+        h,
+        pw,
+        pattern: input.pattern(),
+    };
+    let mut p = Planes::split(&mut scratch[..needed], RING * pw);
+    let rows = h + 2 * HALO;
+    // Each stage's lag behind the mosaic row just read, and its radius (rows and columns at
+    // each edge of the padded frame it cannot compute).
+    for t in 0..rows + 11 {
+        if t < rows {
+            frame.mosaic_row(input, t, &mut p);
+        }
+        let valid = |lag: usize, radius: usize| {
+            t.checked_sub(lag)
+                .filter(|r| *r >= radius && *r + radius < rows)
         };
-        geometry.run(input, output, planes);
-        y0 += rows;
+        if let Some(r) = valid(2, 2) {
+            frame.diff_row(r, &mut p);
+        }
+        if let Some(r) = valid(3, 3) {
+            frame.grad_row(r, &mut p);
+            frame.class_row(r, &mut p);
+        }
+        if let Some(r) = valid(4, 4) {
+            frame.sum3_row(r, &mut p);
+        }
+        if let Some(r) = valid(6, 6) {
+            frame.green_row(r, &mut p);
+        }
+        if let Some(r) = valid(8, 8) {
+            frame.chroma_row(r, &mut p);
+        }
+        if let Some(r) = t.checked_sub(11).filter(|r| (HALO..HALO + h).contains(r)) {
+            frame.output_row(r, &p, output.row_mut(r - HALO));
+        }
     }
     Ok(())
 }
 
-/// The scratch planes of one band, each `(rows + 2 * HALO) * pw` samples.
+/// The ring buffers, each `RING` rows of `pw` samples.
 struct Planes<'a> {
     mosaic: &'a mut [f32],
     diff_h: &'a mut [f32],
@@ -173,14 +200,31 @@ impl<'a> Planes<'a> {
     }
 }
 
-/// Where a band sits in the frame.
-struct Band {
-    y0: usize,
-    rows: usize,
+/// The frame's geometry in padded coordinates (`HALO` added on every side).
+struct Frame {
     w: usize,
     h: usize,
     pw: usize,
     pattern: CfaPattern,
+}
+
+/// Row `r` of a ring plane.
+#[inline]
+fn row(plane: &[f32], r: usize, pw: usize) -> &[f32] {
+    let start = (r % RING) * pw;
+    &plane[start..start + pw]
+}
+
+#[inline]
+fn row_mut(plane: &mut [f32], r: usize, pw: usize) -> &mut [f32] {
+    let start = (r % RING) * pw;
+    &mut plane[start..start + pw]
+}
+
+/// Rows `r - N/2 ..= r + N/2` of a ring plane.
+#[inline]
+fn rows<const N: usize>(plane: &[f32], r: usize, pw: usize) -> [&[f32]; N] {
+    core::array::from_fn(|k| row(plane, r + k - N / 2, pw))
 }
 
 #[inline]
@@ -192,13 +236,10 @@ fn clamp01(v: f32) -> f32 {
     }
 }
 
-/// `own` if it is more decided (further from 0.5) than the mean of its diagonal neighbours,
-/// else that mean.
+/// `own` if it is more decided (further from 0.5) than `around`, the mean of its diagonal
+/// neighbours, else `around`.
 #[inline]
-fn refined(plane: &[f32], i: usize, pw: usize) -> f32 {
-    let own = plane[i];
-    let around =
-        0.25 * (plane[i - pw - 1] + plane[i - pw + 1] + plane[i + pw - 1] + plane[i + pw + 1]);
+fn refined(own: f32, around: f32) -> f32 {
     if (0.5 - own).abs() < (0.5 - around).abs() {
         around
     } else {
@@ -206,106 +247,133 @@ fn refined(plane: &[f32], i: usize, pw: usize) -> f32 {
     }
 }
 
-/// Sum of squared first and second differences along offset `d`, over the three pixels
-/// `i - d`, `i`, `i + d`.
+/// Sum of squared first and second differences along a line of seven samples `v[0..7]`
+/// centred on `v[3]`, over the three centre positions.
 #[inline]
-fn direction_stat(m: &[f32], i: usize, d: usize) -> f32 {
+fn line_stat(v: [f32; 7]) -> f32 {
     let mut s = 1e-10;
-    for k in [i - d, i, i + d] {
-        let first = m[k - d] - m[k + d];
-        let second = 2.0 * m[k] - m[k - 2 * d] - m[k + 2 * d];
+    for k in 2..5 {
+        let first = v[k - 1] - v[k + 1];
+        let second = 2.0 * v[k] - v[k - 2] - v[k + 2];
         s += first * first + 0.25 * second * second;
     }
     s
 }
 
-/// Inverse-gradient weighted colour difference `x - g` from the pair of neighbours `i - d` and
-/// `i + d` (`x` known there), with gradients reaching `3 d` in `x` and `2 d` in `g`.
+/// Inverse-gradient weighted colour difference from two opposite neighbours: `x[k]` and
+/// `g[k]` are the chroma and green along the line at offsets `-3..=3` (`x` known at odd
+/// offsets), `g0` the green at the centre.
 #[inline]
-fn pair_estimate(x: &[f32], g: &[f32], i: usize, d: usize) -> f32 {
-    let grad = |fwd: bool| {
-        let (n, far, g2) = if fwd {
-            (i + d, i + 3 * d, i + 2 * d)
-        } else {
-            (i - d, i - 3 * d, i - 2 * d)
-        };
-        let opposite = if fwd { i - d } else { i + d };
-        EPS + (x[n] - x[opposite]).abs() + (x[n] - x[far]).abs() + (g[i] - g[g2]).abs()
-    };
-    let (before, after) = (grad(false), grad(true));
-    let est_before = x[i - d] - g[i - d];
-    let est_after = x[i + d] - g[i + d];
-    (after * est_before + before * est_after) / (before + after)
+fn pair_estimate(x: [f32; 7], g: [f32; 5]) -> f32 {
+    let before = EPS + (x[2] - x[4]).abs() + (x[2] - x[0]).abs() + (g[2] - g[0]).abs();
+    let after = EPS + (x[4] - x[2]).abs() + (x[4] - x[6]).abs() + (g[2] - g[4]).abs();
+    (after * (x[2] - g[1]) + before * (x[4] - g[3])) / (before + after)
 }
 
-impl Band {
-    fn colour(&self, x: usize, r: usize) -> CfaColour {
-        // HALO is even, so band coordinates have the frame's parity.
-        self.pattern.colour_at(x & 1, (self.y0 + r) & 1)
+impl Frame {
+    /// 1.0 where padded column `x` of padded row `r` is green, else 0.0, as `(even x, odd x)`.
+    fn green_mask(&self, r: usize) -> [f32; 2] {
+        let is = |x: usize| f32::from(u8::from(self.pattern.colour_at(x, r) == CfaColour::Green));
+        [is(0), is(1)]
     }
 
-    fn run<T: Sample>(
-        &self,
-        input: &MosaicView<'_, T>,
-        output: &mut RgbViewMut<'_, T>,
-        p: Planes<'_>,
-    ) {
-        let pw = self.pw;
-        let rr = self.rows + 2 * HALO;
-        // Stage 0: the mosaic, reflected at the frame edges.
-        for r in 0..rr {
-            let src = input.row(reflect(
-                self.y0 as isize + r as isize - HALO as isize,
-                self.h,
-            ));
-            let dst = &mut p.mosaic[r * pw..(r + 1) * pw];
-            for (x, v) in dst.iter_mut().enumerate() {
-                *v = src[reflect(x as isize - HALO as isize, self.w)].to_unit();
-            }
-        }
-        let m = &*p.mosaic;
-        let span =
-            |rad: usize| (rad..rr - rad).flat_map(move |r| (rad..pw - rad).map(move |x| (r, x)));
+    fn colour(&self, x: usize, r: usize) -> CfaColour {
+        self.pattern.colour_at(x & 1, r & 1)
+    }
 
-        // Stage 1: directional colour differences G - C.
-        for (r, x) in span(2) {
-            let i = r * pw + x;
-            let sign = if self.colour(x, r) == CfaColour::Green {
-                1.0
-            } else {
-                -1.0
-            };
-            let along = |d: usize| {
-                0.5 * (m[i - d] + m[i + d]) + 0.25 * (2.0 * m[i] - m[i - 2 * d] - m[i + 2 * d])
-            };
-            p.diff_h[i] = sign * (m[i] - along(1));
-            p.diff_v[i] = sign * (m[i] - along(pw));
+    fn mosaic_row<T: Sample>(&self, input: &MosaicView<'_, T>, r: usize, p: &mut Planes<'_>) {
+        let src = input.row(reflect(r as isize - HALO as isize, self.h));
+        let dst = row_mut(p.mosaic, r, self.pw);
+        for (d, s) in dst[HALO..HALO + self.w].iter_mut().zip(src) {
+            *d = s.to_unit();
         }
-        // Stage 2: their gradients.
-        for (r, x) in span(3) {
-            let i = r * pw + x;
-            p.grad_h[i] = (p.diff_h[i - 1] - p.diff_h[i + 1]).abs();
-            p.grad_v[i] = (p.diff_v[i - pw] - p.diff_v[i + pw]).abs();
+        for x in (0..HALO).chain(HALO + self.w..self.pw) {
+            dst[x] = src[reflect(x as isize - HALO as isize, self.w)].to_unit();
         }
-        for (r, x) in span(4) {
-            let i = r * pw + x;
-            p.sum3_v[i] = p.grad_v[i - 1] + p.grad_v[i] + p.grad_v[i + 1];
-            p.sum3_h[i] = p.grad_h[i - pw] + p.grad_h[i] + p.grad_h[i + pw];
+    }
+
+    fn diff_row(&self, r: usize, p: &mut Planes<'_>) {
+        let pw = self.pw;
+        let m: [&[f32]; 5] = rows(p.mosaic, r, pw);
+        let mask = self.green_mask(r);
+        let dh = row_mut(p.diff_h, r, pw);
+        for x in 2..pw - 2 {
+            let sign = 2.0 * mask[x & 1] - 1.0;
+            let c = m[2];
+            let along = 0.5 * (c[x - 1] + c[x + 1]) + 0.25 * (2.0 * c[x] - c[x - 2] - c[x + 2]);
+            dh[x] = sign * (c[x] - along);
         }
-        // Stage 3: green.
-        let (dh, dv, s3v, s3h) = (&*p.diff_h, &*p.diff_v, &*p.sum3_v, &*p.sum3_h);
-        for (r, x) in span(6) {
-            let i = r * pw + x;
-            if self.colour(x, r) == CfaColour::Green {
-                p.green[i] = m[i];
-                continue;
-            }
-            let sn = s3v[i] + s3v[i - pw] + s3v[i - 2 * pw];
-            let ss = s3v[i] + s3v[i + pw] + s3v[i + 2 * pw];
-            let sw = s3h[i] + s3h[i - 1] + s3h[i - 2];
-            let se = s3h[i] + s3h[i + 1] + s3h[i + 2];
-            let sv = (sn + ss - s3v[i]) * (sn + ss - s3v[i]) + TINY;
-            let sh = (sw + se - s3h[i]) * (sw + se - s3h[i]) + TINY;
+        let dv = row_mut(p.diff_v, r, pw);
+        for x in 2..pw - 2 {
+            let sign = 2.0 * mask[x & 1] - 1.0;
+            let along = 0.5 * (m[1][x] + m[3][x]) + 0.25 * (2.0 * m[2][x] - m[0][x] - m[4][x]);
+            dv[x] = sign * (m[2][x] - along);
+        }
+    }
+
+    fn grad_row(&self, r: usize, p: &mut Planes<'_>) {
+        let pw = self.pw;
+        let dh = row(p.diff_h, r, pw);
+        let gh = row_mut(p.grad_h, r, pw);
+        for x in 3..pw - 3 {
+            gh[x] = (dh[x - 1] - dh[x + 1]).abs();
+        }
+        let [up, _, down]: [&[f32]; 3] = rows(p.diff_v, r, pw);
+        let gv = row_mut(p.grad_v, r, pw);
+        for x in 3..pw - 3 {
+            gv[x] = (up[x] - down[x]).abs();
+        }
+    }
+
+    fn sum3_row(&self, r: usize, p: &mut Planes<'_>) {
+        let pw = self.pw;
+        let gv = row(p.grad_v, r, pw);
+        let s3v = row_mut(p.sum3_v, r, pw);
+        for x in 4..pw - 4 {
+            s3v[x] = gv[x - 1] + gv[x] + gv[x + 1];
+        }
+        let gh: [&[f32]; 3] = rows(p.grad_h, r, pw);
+        let s3h = row_mut(p.sum3_h, r, pw);
+        for x in 4..pw - 4 {
+            s3h[x] = gh[0][x] + gh[1][x] + gh[2][x];
+        }
+    }
+
+    fn class_row(&self, r: usize, p: &mut Planes<'_>) {
+        let pw = self.pw;
+        let m: [&[f32]; 7] = rows(p.mosaic, r, pw);
+        let hv = row_mut(p.class_hv, r, pw);
+        for x in 3..pw - 3 {
+            let v = line_stat(core::array::from_fn(|k| m[k][x]));
+            let hz = line_stat(core::array::from_fn(|k| m[3][x + k - 3]));
+            hv[x] = v / (v + hz);
+        }
+        let pq = row_mut(p.class_pq, r, pw);
+        for x in 3..pw - 3 {
+            let pp = line_stat(core::array::from_fn(|k| m[k][x + k - 3]));
+            let q = line_stat(core::array::from_fn(|k| m[k][x + 3 - k]));
+            pq[x] = pp / (pp + q);
+        }
+    }
+
+    fn green_row(&self, r: usize, p: &mut Planes<'_>) {
+        let pw = self.pw;
+        let m: [&[f32]; 7] = rows(p.mosaic, r, pw);
+        let dv: [&[f32]; 7] = rows(p.diff_v, r, pw);
+        let dh = row(p.diff_h, r, pw);
+        let s3v: [&[f32]; 5] = rows(p.sum3_v, r, pw);
+        let s3h = row(p.sum3_h, r, pw);
+        let mask = self.green_mask(r);
+        let out = row_mut(p.green, r, pw);
+        let c = m[3];
+        for x in 6..pw - 6 {
+            let sn = s3v[2][x] + s3v[1][x] + s3v[0][x];
+            let ss = s3v[2][x] + s3v[3][x] + s3v[4][x];
+            let sw = s3h[x] + s3h[x - 1] + s3h[x - 2];
+            let se = s3h[x] + s3h[x + 1] + s3h[x + 2];
+            let box_v = sn + ss - s3v[2][x];
+            let box_h = sw + se - s3h[x];
+            let (sv, sh) = (box_v * box_v + TINY, box_h * box_h + TINY);
             let class = sv / (sv + sh);
             let (wn, ws, ww, we) = (
                 1.0 / (sn * sn + TINY),
@@ -318,90 +386,101 @@ impl Band {
             let mut dw = 0.0;
             let mut de = 0.0;
             for (k, f) in SMOOTH.iter().enumerate() {
-                dn += f * dv[i - k * pw];
-                ds += f * dv[i + k * pw];
-                dw += f * dh[i - k];
-                de += f * dh[i + k];
+                dn += f * dv[3 - k][x];
+                ds += f * dv[3 + k][x];
+                dw += f * dh[x - k];
+                de += f * dh[x + k];
             }
-            let g_diff = m[i] + (wn * dn + ws * ds + ww * dw + we * de) / (wn + ws + ww + we);
-            let half = |d: usize, fwd: bool| {
-                let (n, n2, n3) = if fwd {
-                    (i + d, i + 2 * d, i + 3 * d)
-                } else {
-                    (i - d, i - 2 * d, i - 3 * d)
-                };
-                let opposite = if fwd { i - d } else { i + d };
-                EPS + (m[opposite] - m[n]).abs() + (m[i] - m[n2]).abs() + (m[n] - m[n3]).abs()
-            };
-            let (gn, gs, gw, ge) = (
-                half(pw, false),
-                half(pw, true),
-                half(1, false),
-                half(1, true),
-            );
-            let vertical = (gs * m[i - pw] + gn * m[i + pw]) / (gn + gs);
-            let horizontal = (ge * m[i - 1] + gw * m[i + 1]) / (gw + ge);
+            let g_diff = c[x] + (wn * dn + ws * ds + ww * dw + we * de) / (wn + ws + ww + we);
+            let col = |k: usize| m[k][x];
+            let gn =
+                EPS + (col(4) - col(2)).abs() + (col(3) - col(1)).abs() + (col(2) - col(0)).abs();
+            let gs =
+                EPS + (col(2) - col(4)).abs() + (col(3) - col(5)).abs() + (col(4) - col(6)).abs();
+            let gw = EPS
+                + (c[x + 1] - c[x - 1]).abs()
+                + (c[x] - c[x - 2]).abs()
+                + (c[x - 1] - c[x - 3]).abs();
+            let ge = EPS
+                + (c[x - 1] - c[x + 1]).abs()
+                + (c[x] - c[x + 2]).abs()
+                + (c[x + 1] - c[x + 3]).abs();
+            let vertical = (gs * col(2) + gn * col(4)) / (gn + gs);
+            let horizontal = (ge * c[x - 1] + gw * c[x + 1]) / (gw + ge);
             let g_plain = class * horizontal + (1.0 - class) * vertical;
-            let diff_mean = sn.min(ss).min(sw.min(se)) / 9.0;
-            let raw_mean = gn.min(gs).min(gw.min(ge)) / 3.0;
+            let diff_mean = sn.min(ss).min(sw.min(se)) * (1.0 / 9.0);
+            let raw_mean = gn.min(gs).min(gw.min(ge)) * (1.0 / 3.0);
             let a = 0.6 + 0.35 * raw_mean / (raw_mean + 2.0 * diff_mean + 1e-9);
-            p.green[i] = clamp01(a * g_diff + (1.0 - a) * g_plain);
+            let estimate = clamp01(a * g_diff + (1.0 - a) * g_plain);
+            let is_green = mask[x & 1];
+            out[x] = is_green * c[x] + (1.0 - is_green) * estimate;
         }
-        // Stage 4: classifiers on the mosaic.
-        for (r, x) in span(3) {
-            let i = r * pw + x;
-            let v = direction_stat(m, i, pw);
-            let hz = direction_stat(m, i, 1);
-            p.class_hv[i] = v / (v + hz);
-            let pp = direction_stat(m, i, pw + 1);
-            let q = direction_stat(m, i, pw - 1);
-            p.class_pq[i] = pp / (pp + q);
+    }
+
+    fn chroma_row(&self, r: usize, p: &mut Planes<'_>) {
+        let pw = self.pw;
+        let m: [&[f32]; 7] = rows(p.mosaic, r, pw);
+        let g: [&[f32]; 5] = rows(p.green, r, pw);
+        let pq: [&[f32]; 3] = rows(p.class_pq, r, pw);
+        // 1.0 where the pixel is red (blue), by column parity.
+        let is = |x: usize, colour: CfaColour| f32::from(u8::from(self.colour(x, r) == colour));
+        let red_mask = [is(0, CfaColour::Red), is(1, CfaColour::Red)];
+        let blue_mask = [is(0, CfaColour::Blue), is(1, CfaColour::Blue)];
+        let opposite_at = |x: usize| {
+            let est_p = pair_estimate(
+                core::array::from_fn(|k| m[k][x + k - 3]),
+                core::array::from_fn(|k| g[k][x + k - 2]),
+            );
+            let est_q = pair_estimate(
+                core::array::from_fn(|k| m[k][x + 3 - k]),
+                core::array::from_fn(|k| g[k][x + 2 - k]),
+            );
+            let around = 0.25 * (pq[0][x - 1] + pq[0][x + 1] + pq[2][x - 1] + pq[2][x + 1]);
+            let c = refined(pq[1][x], around);
+            clamp01(g[2][x] + (1.0 - c) * est_p + c * est_q)
+        };
+        let red = row_mut(p.red, r, pw);
+        let blue = row_mut(p.blue, r, pw);
+        for x in 8..pw - 8 {
+            let own = m[3][x];
+            let opposite = opposite_at(x);
+            let (rm, bm) = (red_mask[x & 1], blue_mask[x & 1]);
+            // At red: red = own, blue = opposite; at blue the reverse; at green both 0.
+            red[x] = rm * own + bm * opposite;
+            blue[x] = bm * own + rm * opposite;
         }
-        // Stage 5: the opposite chroma at R and B.
-        let g = &*p.green;
-        let (class_hv, class_pq) = (&*p.class_hv, &*p.class_pq);
-        for (r, x) in span(8) {
-            let i = r * pw + x;
-            let colour = self.colour(x, r);
-            let (own_red, own_blue) = match colour {
-                CfaColour::Green => {
-                    p.red[i] = 0.0;
-                    p.blue[i] = 0.0;
-                    continue;
-                }
-                CfaColour::Red => (true, false),
-                CfaColour::Blue => (false, true),
+    }
+
+    fn output_row<T: Sample>(&self, r: usize, p: &Planes<'_>, out: &mut [T]) {
+        let pw = self.pw;
+        let m = row(p.mosaic, r, pw);
+        let g: [&[f32]; 5] = rows(p.green, r, pw);
+        let hv: [&[f32]; 3] = rows(p.class_hv, r, pw);
+        let red: [&[f32]; 7] = rows(p.red, r, pw);
+        let blue: [&[f32]; 7] = rows(p.blue, r, pw);
+        let mask = self.green_mask(r);
+        for (o, x) in out.chunks_exact_mut(3).zip(HALO..HALO + self.w) {
+            let around = 0.25 * (hv[0][x - 1] + hv[0][x + 1] + hv[2][x - 1] + hv[2][x + 1]);
+            let c = refined(hv[1][x], around);
+            let at_g = |plane: [&[f32]; 7]| {
+                let vertical = pair_estimate(
+                    core::array::from_fn(|k| plane[k][x]),
+                    core::array::from_fn(|k| g[k][x]),
+                );
+                let horizontal = pair_estimate(
+                    core::array::from_fn(|k| plane[3][x + k - 3]),
+                    core::array::from_fn(|k| g[2][x + k - 2]),
+                );
+                clamp01(g[2][x] + (1.0 - c) * vertical + c * horizontal)
             };
-            let est_p = pair_estimate(m, g, i, pw + 1);
-            let est_q = pair_estimate(m, g, i, pw - 1);
-            let c = refined(class_pq, i, pw);
-            let opposite = clamp01(g[i] + (1.0 - c) * est_p + c * est_q);
-            p.red[i] = if own_red { m[i] } else { opposite };
-            p.blue[i] = if own_blue { m[i] } else { opposite };
-        }
-        // Stage 6: R and B at G, and the output.
-        let (red, blue) = (&*p.red, &*p.blue);
-        for r in HALO..HALO + self.rows {
-            let out = output.row_mut(self.y0 + r - HALO);
-            for x in HALO..HALO + self.w {
-                let i = r * pw + x;
-                let rgb = match self.colour(x, r) {
-                    CfaColour::Green => {
-                        let c = refined(class_hv, i, pw);
-                        let at_g = |plane: &[f32]| {
-                            let vertical = pair_estimate(plane, g, i, pw);
-                            let horizontal = pair_estimate(plane, g, i, 1);
-                            clamp01(g[i] + (1.0 - c) * vertical + c * horizontal)
-                        };
-                        [at_g(red), m[i], at_g(blue)]
-                    }
-                    _ => [red[i], g[i], blue[i]],
-                };
-                let o = 3 * (x - HALO);
-                out[o] = T::from_unit(rgb[0]);
-                out[o + 1] = T::from_unit(rgb[1]);
-                out[o + 2] = T::from_unit(rgb[2]);
-            }
+            let rgb = if mask[x & 1] > 0.5 {
+                [at_g(red), m[x], at_g(blue)]
+            } else {
+                [red[3][x], g[2][x], blue[3][x]]
+            };
+            o[0] = T::from_unit(rgb[0]);
+            o[1] = T::from_unit(rgb[1]);
+            o[2] = T::from_unit(rgb[2]);
         }
     }
 }
