@@ -73,9 +73,14 @@ struct DofArgs {
 
 #[derive(Args)]
 struct DemosaicArgs {
-    /// nearest, bilinear, bilinear-opencv (bit-exact to OpenCV's cvtColor) or mhc.
+    /// nearest, bilinear, bilinear-opencv (bit-exact to OpenCV's cvtColor), mhc or directional
+    /// (the high-quality method).
     #[arg(long, default_value = "mhc")]
     method: String,
+    /// Border rule: reflect101 (mirror without repeating the edge; keeps CFA parity) or opencv
+    /// (OpenCV's cvtColor rule; bilinear only, same as --method bilinear-opencv).
+    #[arg(long, default_value = "reflect101")]
+    border: String,
     /// CFA pattern by the top-left 2x2 block: RGGB, BGGR, GRBG or GBRG.
     #[arg(long, default_value = "RGGB")]
     pattern: String,
@@ -120,7 +125,21 @@ fn dof(args: &DofArgs) -> Result<String, String> {
 }
 
 fn demosaic(args: &DemosaicArgs) -> Result<String, String> {
-    let method = Method::parse(&args.method)?;
+    let method = match (Method::parse(&args.method)?, args.border.as_str()) {
+        (method, "reflect101") => method,
+        (Method::Bilinear | Method::BilinearOpenCv, "opencv") => Method::BilinearOpenCv,
+        (method, "opencv") => {
+            return Err(format!(
+                "--border opencv applies to bilinear only (got --method {})",
+                method.name()
+            ))
+        }
+        (_, other) => {
+            return Err(format!(
+                "--border must be reflect101 or opencv (got {other:?})"
+            ))
+        }
+    };
     let pattern: CfaPattern = args.pattern.parse().map_err(|_| {
         format!(
             "--pattern must be one of RGGB, BGGR, GRBG, GBRG (got {:?})",

@@ -118,7 +118,22 @@ fn demosaic_command_errors_are_one_line() {
     let missing = dir.join("missing.png");
     let truncated = dir.join("short.pgm");
     std::fs::write(&truncated, b"P5\n4 4\n255\nabc").unwrap();
-    let cases: [(&[&str], &str); 5] = [
+    let cases: [(&[&str], &str); 7] = [
+        (
+            &[
+                "--input",
+                path_str(&grey_path),
+                "--border",
+                "opencv",
+                "--method",
+                "mhc",
+            ],
+            "--border opencv applies to bilinear only",
+        ),
+        (
+            &["--input", path_str(&grey_path), "--border", "wrap"],
+            "--border must be reflect101 or opencv",
+        ),
         (&["--input", path_str(&rgb_path)], "single-channel"),
         (
             &["--input", path_str(&grey_path), "--method", "vng"],
@@ -140,6 +155,37 @@ fn demosaic_command_errors_are_one_line() {
         assert_eq!(err.lines().count(), 1, "{err}");
         assert!(err.contains(expected), "{err}");
     }
+}
+
+/// `--border opencv` with bilinear is the OpenCV-exact method; the default border is reflect-101.
+#[test]
+fn border_flag_selects_opencv_rule() {
+    let dir = temp_dir("demosaic-border");
+    let input = dir.join("in.png");
+    imageio::write(&input, &mosaic_image(11, 7, 16)).unwrap();
+    let run = |extra: &[&str], name: &str| {
+        let out_path = dir.join(name);
+        let mut args = vec![
+            "demosaic",
+            "--input",
+            path_str(&input),
+            "--output",
+            path_str(&out_path),
+        ];
+        args.extend(extra);
+        let out = camsim(&args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        imageio::read(&out_path).unwrap()
+    };
+    let flag = run(&["--method", "bilinear", "--border", "opencv"], "flag.png");
+    let named = run(&["--method", "bilinear-opencv"], "named.png");
+    let reflect = run(&["--method", "bilinear"], "reflect.png");
+    assert_eq!(flag, named);
+    assert_ne!(flag, reflect);
 }
 
 /// CPSNR against an independent computation, and the bench's JSON on a small dataset.
