@@ -238,10 +238,12 @@ fn clamp01(v: f32) -> f32 {
     }
 }
 
-/// `own` if it is more decided (further from 0.5) than `around`, the mean of its diagonal
-/// neighbours, else `around`.
+/// The classifier at column `x` of the middle of three rows: its own value if it is more decided
+/// (further from 0.5) than the mean of its four diagonal neighbours, else that mean.
 #[inline(always)]
-fn refined(own: f32, around: f32) -> f32 {
+fn refined(class: [&[f32]; 3], x: usize) -> f32 {
+    let own = class[1][x];
+    let around = 0.25 * (class[0][x - 1] + class[0][x + 1] + class[2][x - 1] + class[2][x + 1]);
     if (0.5 - own).abs() < (0.5 - around).abs() {
         around
     } else {
@@ -437,8 +439,7 @@ impl Frame {
                 core::array::from_fn(|k| m[k][x + 3 - k]),
                 core::array::from_fn(|k| g[k][x + 2 - k]),
             );
-            let around = 0.25 * (pq[0][x - 1] + pq[0][x + 1] + pq[2][x - 1] + pq[2][x + 1]);
-            let c = refined(pq[1][x], around);
+            let c = refined(pq, x);
             clamp01(g[2][x] + (1.0 - c) * est_p + c * est_q)
         };
         let red = row_mut(p.red, r, pw);
@@ -462,8 +463,7 @@ impl Frame {
         let blue: [&[f32]; 7] = rows(p.blue, r, pw);
         let mask = self.green_mask(r);
         for (o, x) in out.chunks_exact_mut(3).zip(HALO..HALO + self.w) {
-            let around = 0.25 * (hv[0][x - 1] + hv[0][x + 1] + hv[2][x - 1] + hv[2][x + 1]);
-            let c = refined(hv[1][x], around);
+            let c = refined(hv, x);
             let at_g = |plane: [&[f32]; 7]| {
                 let vertical = pair_estimate(
                     core::array::from_fn(|k| plane[k][x]),
