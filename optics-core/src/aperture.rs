@@ -11,7 +11,7 @@
 //! assert!((hexagon.pdf(p) - 1.0 / hexagon.area()).abs() < 1e-6);
 //! ```
 
-use core::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI, TAU};
+use core::f32::consts::{FRAC_PI_4, PI, TAU};
 
 use glam::Vec2;
 
@@ -74,12 +74,15 @@ impl ApertureShape for Disk {
         if a == 0.0 && b == 0.0 {
             return Vec2::ZERO;
         }
-        let (r, theta) = if a.abs() > b.abs() {
-            (a, FRAC_PI_4 * (b / a))
+        // Shirley-Chiu: the angle is pi/4 (b / a) in the sectors around +-x, and
+        // pi/2 - pi/4 (a / b) around +-y, where cosine and sine trade places.
+        if a.abs() > b.abs() {
+            let (s, c) = math::sin_cos_small(FRAC_PI_4 * (b / a));
+            Vec2::new(a * c, a * s)
         } else {
-            (b, FRAC_PI_2 - FRAC_PI_4 * (a / b))
-        };
-        Vec2::new(r * math::cos(theta), r * math::sin(theta))
+            let (s, c) = math::sin_cos_small(FRAC_PI_4 * (a / b));
+            Vec2::new(b * s, b * c)
+        }
     }
     fn contains(&self, p: Vec2) -> bool {
         p.length_squared() <= 1.0 + EDGE_TOLERANCE

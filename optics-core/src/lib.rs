@@ -41,7 +41,7 @@ mod error;
 pub mod exposure;
 pub mod fixed_point;
 pub mod lens;
-mod math;
+pub mod math;
 mod real;
 pub mod refraction;
 

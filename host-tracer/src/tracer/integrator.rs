@@ -97,8 +97,10 @@ pub fn radiance<const N: usize>(
                     )
                 {
                     let bsdf = cos_in * std::f32::consts::FRAC_1_PI;
-                    let w = power_heuristic(light.pdf, bsdf);
-                    sum += beta * f * light.radiance * (cos_in * w / light.pdf);
+                    // The power heuristic's weight over the light's density, in one division:
+                    // w / p_light = p_light / (p_light^2 + p_bsdf^2).
+                    let w_over_pdf = light.pdf / (light.pdf * light.pdf + bsdf * bsdf);
+                    sum += beta * f * light.radiance * (cos_in * w_over_pdf);
                 }
             }
         }

@@ -77,8 +77,8 @@ pub fn basis(n: Vec3) -> (Vec3, Vec3) {
 #[inline]
 pub fn cosine_hemisphere(n: Vec3, u: Vec2) -> (Vec3, f32) {
     let r = u.x.sqrt();
-    let phi = std::f32::consts::TAU * u.y;
-    let (x, y) = (r * phi.cos(), r * phi.sin());
+    let (sin, cos) = optics_core::math::sin_cos_turns(u.y);
+    let (x, y) = (r * cos, r * sin);
     let z = (1.0 - u.x).max(0.0).sqrt();
     let (t, b) = basis(n);
     (t * x + b * y + n * z, z)

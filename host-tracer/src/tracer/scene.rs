@@ -489,7 +489,7 @@ impl<const N: usize> Scene<N> {
         let to = point + prim.motion * s - p;
         let distance2 = to.length_squared();
         let distance = distance2.sqrt();
-        let direction = to / distance;
+        let direction = to * (1.0 / distance);
         let cos_light = -direction.dot(normal);
         if cos_light <= 0.0 || !distance.is_finite() || distance == 0.0 {
             return None;
