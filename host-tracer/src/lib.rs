@@ -19,6 +19,7 @@ pub mod exr;
 pub mod imageio;
 pub mod isp_cmd;
 pub mod isp_options;
+pub mod render_bench;
 pub mod render_cmd;
 pub mod sensor;
 pub mod spectra;

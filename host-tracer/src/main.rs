@@ -50,6 +50,9 @@ enum Command {
 enum BenchCommand {
     /// CPSNR on an image set and single-thread Mpix/s for every demosaicing method.
     Demosaic(BenchDemosaicArgs),
+    /// What each optical feature (thin lens, aperture shape, chromatic aberration, motion,
+    /// spectral rendering, distortion) costs the path tracer, against the pinhole.
+    Render(BenchRenderArgs),
 }
 
 #[derive(Args)]
@@ -106,6 +109,69 @@ struct BenchDemosaicArgs {
     /// Print a JSON list of {method, bits, cpsnr_db, mpix_per_s} instead of a table.
     #[arg(long)]
     json: bool,
+}
+
+#[derive(Args)]
+struct BenchRenderArgs {
+    /// Built-in scene or scene TOML file (RGB colours; the spectral variant converts them).
+    #[arg(long, default_value = "cornell-box")]
+    scene: String,
+    /// Image width.
+    #[arg(long, default_value_t = 256)]
+    width: u32,
+    /// Image height.
+    #[arg(long, default_value_t = 256)]
+    height: u32,
+    /// Samples per pixel of each render.
+    #[arg(long, default_value_t = 16)]
+    spp: u32,
+    /// Worker threads (0: one per core).
+    #[arg(long, default_value_t = 1)]
+    threads: usize,
+    /// Renders per variant; the fastest is reported.
+    #[arg(long, default_value_t = 3)]
+    repeats: u32,
+    /// Aperture radius of the thin-lens variants, in scene units.
+    #[arg(
+        long,
+        default_value_t = 0.1,
+        value_name = "R",
+        allow_hyphen_values = true
+    )]
+    aperture_radius: f32,
+    /// Print a JSON list of {variant, what, msamples_per_s, relative_time, mean_rgb}.
+    #[arg(long)]
+    json: bool,
+}
+
+fn bench_render(args: &BenchRenderArgs) -> Result<String, String> {
+    use host_tracer::render_bench::{bench, table, BenchSettings};
+    let scene = host_tracer::tracer::scene_file::load(&args.scene)?;
+    let settings = BenchSettings {
+        width: args.width,
+        height: args.height,
+        spp: args.spp,
+        threads: args.threads,
+        repeats: args.repeats,
+        aperture_radius: args.aperture_radius,
+    };
+    let terminal = std::io::stderr().is_terminal();
+    let mut progress = |what: &str| {
+        if terminal {
+            eprint!("\r\x1b[Kbench render: {what}");
+        } else {
+            eprintln!("bench render: {what}");
+        }
+    };
+    let rows = bench(&scene, &settings, &mut progress)?;
+    if terminal {
+        eprintln!();
+    }
+    if args.json {
+        let list: Vec<_> = rows.iter().map(|r| r.to_json()).collect();
+        return Ok(serde_json::to_string_pretty(&list).map_err(|e| e.to_string())? + "\n");
+    }
+    Ok(table(&rows, &scene.name, &settings))
 }
 
 fn dof(args: &DofArgs) -> Result<String, String> {
@@ -209,6 +275,9 @@ fn main() -> ExitCode {
         Command::Bench {
             what: BenchCommand::Demosaic(args),
         } => bench_demosaic(args),
+        Command::Bench {
+            what: BenchCommand::Render(args),
+        } => bench_render(args),
     };
     match result {
         Ok(out) => {

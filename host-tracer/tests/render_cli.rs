@@ -446,3 +446,59 @@ emission = { illuminant = "D65", luminance = 3.0 }
     );
     assert!(image.rgb.iter().all(|v| v.is_finite()));
 }
+
+#[test]
+fn bench_render_reports_every_feature_against_the_pinhole() {
+    let (ok, out, err) = camsim(&[
+        "bench",
+        "render",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--spp",
+        "1",
+        "--repeats",
+        "1",
+        "--json",
+    ]);
+    assert!(ok, "{err}");
+    let rows: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let rows = rows.as_array().unwrap();
+    let names: Vec<&str> = rows
+        .iter()
+        .map(|r| r["variant"].as_str().unwrap())
+        .collect();
+    for want in [
+        "pinhole",
+        "thin lens",
+        "thin lens, CA 0.15",
+        "camera motion",
+        "object motion",
+        "spectral",
+        "distortion",
+        "everything",
+    ] {
+        assert!(names.contains(&want), "{want} missing from {names:?}");
+    }
+    assert_eq!(rows[0]["relative_time"].as_f64(), Some(1.0));
+    for r in rows {
+        assert!(r["msamples_per_s"].as_f64().unwrap() > 0.0, "{r}");
+        assert!(r["what"].as_str().is_some_and(|w| !w.is_empty()), "{r}");
+    }
+    // Errors are one clear line, and nothing is printed to stdout.
+    for (args, says) in [
+        (vec!["--repeats", "0"], "--repeats"),
+        (vec!["--aperture-radius", "-1"], "--aperture-radius"),
+        (vec!["--spp", "0"], "spp"),
+        (vec!["--scene", "no-such-scene"], "no-such-scene"),
+    ] {
+        let mut all = vec!["bench", "render", "--width", "4", "--height", "4"];
+        all.extend(args);
+        let (ok, out, err) = camsim(&all);
+        assert!(
+            !ok && out.is_empty() && err.contains(says),
+            "{all:?}: {err}"
+        );
+    }
+}
