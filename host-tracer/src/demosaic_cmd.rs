@@ -79,6 +79,19 @@ impl Method {
                 let len =
                     scratch_len(w).ok_or_else(|| format!("a {w}-pixel-wide frame is too wide"))?;
                 let mut scratch = vec![0f32; len];
+                #[cfg(target_arch = "x86_64")]
+                if std::arch::is_x86_feature_detected!("avx2") {
+                    // SAFETY: the CPU has just been found to support AVX2, the one target
+                    // feature `directional_avx2` is compiled for.
+                    return unsafe {
+                        isp_core::demosaic::directional::directional_avx2(
+                            &mosaic,
+                            &mut view,
+                            &mut scratch,
+                        )
+                    }
+                    .map_err(|e| e.to_string());
+                }
                 directional(&mosaic, &mut view, &mut scratch)
             }
         }
