@@ -38,8 +38,9 @@
 //! in all (12 planes), about 1.6 MB for a 2048-pixel-wide frame and independent of the height.
 //! Each intermediate stage computes every pixel of its row and selects by CFA colour, so its
 //! inner loop has no branch and vectorises (the output row, which interleaves RGB, branches).
-//! Speed is not yet where the design aims: 19.7 Mpix/s single-thread at 16 bits on the
-//! project's 2-core EPYC (`camsim bench demosaic`), about a sixth of MHC.
+//! On x86-64, [`directional_avx2`] is the same code compiled for AVX2 (bit-identical output).
+//! Speed is not yet where the design aims: 24.5 Mpix/s single-thread at 16 bits with AVX2 on
+//! the project's 2-core EPYC (`camsim bench demosaic`), about a fifth of MHC.
 
 use super::{reflect, same_size, Method};
 use crate::frame::{MosaicView, RgbViewMut, Sample};
