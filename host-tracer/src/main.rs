@@ -144,6 +144,36 @@ struct BenchRenderArgs {
     json: bool,
 }
 
+/// Progress of a benchmark on stderr: one line rewritten in place on a terminal, a line per
+/// step otherwise (logs).
+struct Progress {
+    label: &'static str,
+    terminal: bool,
+}
+
+impl Progress {
+    fn new(label: &'static str) -> Self {
+        Self {
+            label,
+            terminal: std::io::stderr().is_terminal(),
+        }
+    }
+
+    fn step(&mut self, what: &str) {
+        if self.terminal {
+            eprint!("\r\x1b[K{}: {what}", self.label);
+        } else {
+            eprintln!("{}: {what}", self.label);
+        }
+    }
+
+    fn finish(self) {
+        if self.terminal {
+            eprintln!();
+        }
+    }
+}
+
 fn bench_render(args: &BenchRenderArgs) -> Result<String, String> {
     use host_tracer::render_bench::{bench, table, BenchSettings};
     let scene = host_tracer::tracer::scene_file::load(&args.scene)?;
@@ -155,18 +185,9 @@ fn bench_render(args: &BenchRenderArgs) -> Result<String, String> {
         repeats: args.repeats,
         aperture_radius: args.aperture_radius,
     };
-    let terminal = std::io::stderr().is_terminal();
-    let mut progress = |what: &str| {
-        if terminal {
-            eprint!("\r\x1b[Kbench render: {what}");
-        } else {
-            eprintln!("bench render: {what}");
-        }
-    };
-    let rows = bench(&scene, &settings, &mut progress)?;
-    if terminal {
-        eprintln!();
-    }
+    let mut progress = Progress::new("bench render");
+    let rows = bench(&scene, &settings, &mut |what| progress.step(what))?;
+    progress.finish();
     if args.json {
         let list: Vec<_> = rows.iter().map(|r| r.to_json()).collect();
         return Ok(serde_json::to_string_pretty(&list).map_err(|e| e.to_string())? + "\n");
@@ -227,21 +248,14 @@ fn bench_demosaic(args: &BenchDemosaicArgs) -> Result<String, String> {
         Some(b @ (8 | 16)) => vec![b],
         Some(b) => return Err(format!("--bits must be 8 or 16 (got {b})")),
     };
-    let terminal = std::io::stderr().is_terminal();
-    let mut progress = |what: &str| {
-        if terminal {
-            eprint!("\r\x1b[Kbench: {what}");
-        } else {
-            eprintln!("bench: {what}");
-        }
-    };
+    let mut progress = Progress::new("bench");
     let mut rows = Vec::new();
     for bits in depths {
-        rows.extend(demosaic_cmd::bench(&args.dataset, bits, &mut progress)?);
+        rows.extend(demosaic_cmd::bench(&args.dataset, bits, &mut |what| {
+            progress.step(what)
+        })?);
     }
-    if terminal {
-        eprintln!();
-    }
+    progress.finish();
     if args.json {
         let list: Vec<_> = rows.iter().map(|r| r.to_json()).collect();
         return Ok(serde_json::to_string_pretty(&list).map_err(|e| e.to_string())? + "\n");
