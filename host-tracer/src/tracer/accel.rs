@@ -212,10 +212,9 @@ impl Accel {
         let empty = (Vec3::INFINITY, Vec3::NEG_INFINITY);
         let mut node_bounds = empty;
         let mut depth = 1;
-        let mut rows = [[f32::INFINITY; 8], [f32::INFINITY; 8], [f32::INFINITY; 8]]
-            .into_iter()
-            .chain([[f32::NEG_INFINITY; 8]; 3])
-            .collect::<Vec<_>>();
+        // Empty slots keep the empty box (min +inf, max -inf).
+        let mut rows = [[f32::INFINITY; 8]; 6];
+        rows[3..].fill([f32::NEG_INFINITY; 8]);
         let mut children = [0; 8];
         for slot in 0..8 {
             if source.is_child_empty(slot) {
@@ -274,7 +273,6 @@ impl Accel {
 
     #[inline(never)]
     fn intersect_wide(&self, origin: Vec3A, direction: Vec3A, s: f32, t_max: f32) -> Option<Hit> {
-        let (origin, direction) = (Vec3::from(origin), Vec3::from(direction));
         // The stack is sized for the tree (zeroing a deep tree's stack for a shallow one cost
         // an eighth of the render time).
         match self.depth {
@@ -288,12 +286,13 @@ impl Accel {
     #[inline(always)]
     fn nearest<const STACK: usize>(
         &self,
-        origin: Vec3,
-        direction: Vec3,
+        origin: Vec3A,
+        direction: Vec3A,
         s: f32,
         t_max: f32,
     ) -> Option<Hit> {
-        let slabs = RaySlabs::new(origin.into(), direction.into());
+        let slabs = RaySlabs::new(origin, direction);
+        let (origin, direction) = (Vec3::from(origin), Vec3::from(direction));
         let mut best = Hit {
             t: t_max,
             primitive: u32::MAX,
@@ -364,7 +363,6 @@ impl Accel {
 
     #[inline(never)]
     fn occluded_wide(&self, origin: Vec3A, direction: Vec3A, s: f32, t_max: f32) -> bool {
-        let (origin, direction) = (Vec3::from(origin), Vec3::from(direction));
         match self.depth {
             0 => false,
             1..=4 => self.any::<{ stack_len(4) }>(origin, direction, s, t_max),
@@ -374,8 +372,9 @@ impl Accel {
     }
 
     #[inline(always)]
-    fn any<const STACK: usize>(&self, origin: Vec3, direction: Vec3, s: f32, t_max: f32) -> bool {
-        let slabs = RaySlabs::new(origin.into(), direction.into());
+    fn any<const STACK: usize>(&self, origin: Vec3A, direction: Vec3A, s: f32, t_max: f32) -> bool {
+        let slabs = RaySlabs::new(origin, direction);
+        let (origin, direction) = (Vec3::from(origin), Vec3::from(direction));
         let mut stack = [0 as Child; STACK];
         let mut pending = 1;
         while pending > 0 {
