@@ -342,8 +342,11 @@ impl Dng {
             entries.push(short(illuminant_tag, &[illuminant.code()]));
         }
         if let Some(n) = self.as_shot_neutral {
-            if !n.iter().all(|v| v.is_finite() && *v > 0.0) {
-                return Err(format!("DNG: as-shot neutral {n:?} must be positive"));
+            // Written as n / 1e6: a value that rounds to 0 or past u32 would not read back.
+            if !n.iter().all(|v| (1e-6..=4294.0).contains(v)) {
+                return Err(format!(
+                    "DNG: as-shot neutral {n:?} must be in [1e-6, 4294] (written in millionths)"
+                ));
             }
             entries.push(rational(AS_SHOT_NEUTRAL, &n));
         }
@@ -816,6 +819,20 @@ mod tests {
         assert_eq!(back.calibrations[1].0, Illuminant::D65);
         assert!((back.calibrations[1].1[1][1] - 1.3).abs() < 1e-4);
         assert!((back.as_shot_neutral.unwrap()[0] - 0.45).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_neutral_the_file_cannot_hold_is_refused_not_written() {
+        // Found by the damaged-DNG fuzz body: a neutral of 1e-7 was written as 0 / 1e6,
+        // which the reader then refused.
+        let mut d = sample();
+        d.as_shot_neutral = Some([1e-7, 1.0, 0.7]);
+        assert!(d.encode().unwrap_err().contains("as-shot neutral"));
+        d.as_shot_neutral = Some([0.5, 5000.0, 0.7]);
+        assert!(d.encode().is_err());
+        d.as_shot_neutral = Some([1e-6, 4294.0, 0.7]);
+        let back = Dng::decode(&d.encode().unwrap()).unwrap();
+        assert_eq!(back.as_shot_neutral, Some([1e-6, 4294.0, 0.7]));
     }
 
     #[test]
