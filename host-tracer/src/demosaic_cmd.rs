@@ -221,11 +221,12 @@ fn run_scaled(
     }
 }
 
-/// Runs every method over the PNG images in `dataset` at `bits` (8 or 16), reporting progress
+/// Runs `methods` over the PNG images in `dataset` at `bits` (8 or 16), reporting progress
 /// on stderr through `progress`.
 pub fn bench(
     dataset: &Path,
     bits: u8,
+    methods: &[Method],
     progress: &mut dyn FnMut(&str),
 ) -> Result<Vec<BenchRow>, String> {
     let mut paths: Vec<_> = std::fs::read_dir(dataset)
@@ -248,7 +249,7 @@ pub fn bench(
         images.push(image);
     }
     let mut rows = Vec::new();
-    for method in Method::ALL {
+    for &method in methods {
         let mut total = 0.0;
         for (path, image) in paths.iter().zip(&images) {
             let (w, h) = (image.width, image.height);

@@ -106,6 +106,9 @@ struct BenchDemosaicArgs {
     /// Sample depth: 8 or 16; both when not given.
     #[arg(long)]
     bits: Option<u8>,
+    /// Measure only this method (repeatable); every method when not given.
+    #[arg(long = "method", value_name = "METHOD")]
+    methods: Vec<String>,
     /// Print a JSON list of {method, bits, cpsnr_db, mpix_per_s} instead of a table.
     #[arg(long)]
     json: bool,
@@ -248,12 +251,25 @@ fn bench_demosaic(args: &BenchDemosaicArgs) -> Result<String, String> {
         Some(b @ (8 | 16)) => vec![b],
         Some(b) => return Err(format!("--bits must be 8 or 16 (got {b})")),
     };
+    let methods = if args.methods.is_empty() {
+        demosaic_cmd::Method::ALL.to_vec()
+    } else {
+        let parsed: Result<Vec<_>, _> = args
+            .methods
+            .iter()
+            .map(|m| demosaic_cmd::Method::parse(m))
+            .collect();
+        parsed?
+    };
     let mut progress = Progress::new("bench");
     let mut rows = Vec::new();
     for bits in depths {
-        rows.extend(demosaic_cmd::bench(&args.dataset, bits, &mut |what| {
-            progress.step(what)
-        })?);
+        rows.extend(demosaic_cmd::bench(
+            &args.dataset,
+            bits,
+            &methods,
+            &mut |what| progress.step(what),
+        )?);
     }
     progress.finish();
     if args.json {

@@ -265,4 +265,40 @@ fn bench_reports_cpsnr_and_speed() {
         "2",
     ]);
     assert!(!bad.status.success() && String::from_utf8_lossy(&bad.stderr).contains("--threads"));
+
+    // `--method` picks methods, in the order given, with the same figures as the full run.
+    let picked = camsim(&[
+        "bench",
+        "demosaic",
+        "--dataset",
+        path_str(&dir),
+        "--bits",
+        "8",
+        "--method",
+        "mhc",
+        "--method",
+        "nearest",
+        "--json",
+    ]);
+    assert!(picked.status.success());
+    let picked: serde_json::Value = serde_json::from_slice(&picked.stdout).unwrap();
+    let names: Vec<_> = picked
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["method"].clone())
+        .collect();
+    assert_eq!(names, ["mhc", "nearest"]);
+    let mhc = rows.iter().find(|r| r["method"] == "mhc").unwrap();
+    assert_eq!(picked[0]["cpsnr_db"], mhc["cpsnr_db"]);
+    let unknown = camsim(&[
+        "bench",
+        "demosaic",
+        "--dataset",
+        path_str(&dir),
+        "--method",
+        "ahd",
+    ]);
+    let stderr = String::from_utf8_lossy(&unknown.stderr);
+    assert!(!unknown.status.success() && stderr.contains("ahd") && stderr.contains("directional"));
 }

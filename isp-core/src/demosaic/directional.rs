@@ -49,11 +49,6 @@ use crate::{CfaColour, CfaPattern, IspError};
 /// Rows and columns of context outside the frame (even, so padded coordinates keep the
 /// frame's CFA parity).
 pub const HALO: usize = 12;
-/// Rows held per plane: the longest distance between a row's production and its last reader
-/// is 14 rows (the red and blue planes).
-const RING: usize = 16;
-/// Intermediate planes.
-const PLANES: usize = 12;
 /// Floor of the one-sided gradients, in units of full scale.
 const EPS: f32 = 1e-5;
 /// Keeps divisions by squared sums finite on flat fields.
@@ -61,20 +56,52 @@ const TINY: f32 = 1e-20;
 /// One-sided smoothing of the colour differences, centre first.
 const SMOOTH: [f32; 4] = [0.56, 0.35, 0.08, 0.01];
 
+/// Rows held by each ring buffer (powers of two), in the order [`Planes::split`] takes them:
+/// each is at least the span from the row a stage writes to the oldest row a later stage still
+/// reads (see [`directional_body`]'s schedule).
+const RING_ROWS: [usize; 10] = [
+    16, // mosaic: written at lag 0, read down to lag 14 (output, vertical neighbours)
+    8,  // diff_h
+    8,  // diff_v: lag 2, read down to lag 9 (green)
+    4,  // grad_h: lag 3, read down to lag 5 (sum3)
+    4,  // grad_v
+    8,  // sum3_v: lag 4, read down to lag 8 (green)
+    8,  // sum3_h
+    16, // class: lag 3, read down to lag 12 (output)
+    8,  // green: lag 6, read down to lag 13 (output)
+    8,  // opposite: lag 8, read down to lag 14 (output)
+];
+/// Rows of all ring buffers together, plus three rows for the output's planar colours.
+const SCRATCH_ROWS: usize = {
+    let mut sum = 3;
+    let mut k = 0;
+    while k < RING_ROWS.len() {
+        sum += RING_ROWS[k];
+        k += 1;
+    }
+    sum
+};
+
+/// Samples in one stored row for a frame `width` pixels wide: the padded row split into its
+/// even and odd columns, each half `(width + 2 * HALO + 1) / 2` long.
+const fn row_len(width: usize) -> Option<usize> {
+    let Some(padded) = width.checked_add(2 * HALO + 1) else {
+        return None;
+    };
+    Some(padded / 2 * 2)
+}
+
 /// Scratch samples [`directional`] needs for a frame `width` pixels wide; `None` on overflow.
 ///
 /// ```
 /// use isp_core::demosaic::directional::{scratch_len, HALO};
-/// assert_eq!(scratch_len(100), Some(12 * 16 * (100 + 2 * HALO)));
+/// assert_eq!(scratch_len(100), Some(91 * (100 + 2 * HALO)));
 /// ```
 pub const fn scratch_len(width: usize) -> Option<usize> {
-    let Some(cols) = width.checked_add(2 * HALO) else {
+    let Some(row) = row_len(width) else {
         return None;
     };
-    let Some(plane) = cols.checked_mul(RING) else {
-        return None;
-    };
-    plane.checked_mul(PLANES)
+    row.checked_mul(SCRATCH_ROWS)
 }
 
 /// Demosaics `input` into `output` (same size) with the directional method, using `scratch`
@@ -112,24 +139,26 @@ fn directional_body<T: Sample>(
     if w < 2 || h < 2 {
         return super::demosaic(Method::Bilinear, input, output);
     }
-    let needed = scratch_len(w).ok_or(IspError::InvalidParameter {
+    let too_wide = IspError::InvalidParameter {
         name: "width",
         allowed: "small enough that scratch_len(width) fits in usize",
-    })?;
+    };
+    let needed = scratch_len(w).ok_or(too_wide)?;
+    let stride = row_len(w).ok_or(too_wide)?;
     if scratch.len() < needed {
         return Err(IspError::InvalidParameter {
             name: "scratch",
             allowed: "at least scratch_len(width) samples",
         });
     }
-    let pw = w + 2 * HALO;
     let frame = Frame {
         w,
         h,
-        pw,
+        pw: w + 2 * HALO,
+        half: stride / 2,
         pattern: input.pattern(),
     };
-    let mut p = Planes::split(&mut scratch[..needed], RING * pw);
+    let mut p = Planes::split(&mut scratch[..needed], stride);
     let rows = h + 2 * HALO;
     // Each stage's lag behind the mosaic row just read, and its radius (rows and columns at
     // each edge of the padded frame it cannot compute).
@@ -158,7 +187,7 @@ fn directional_body<T: Sample>(
             frame.chroma_row(r, &mut p);
         }
         if let Some(r) = t.checked_sub(11).filter(|r| (HALO..HALO + h).contains(r)) {
-            frame.output_row(r, &p, output.row_mut(r - HALO));
+            frame.output_row(r, &mut p, output.row_mut(r - HALO));
         }
     }
     Ok(())
@@ -185,39 +214,71 @@ pub fn directional_avx2<T: Sample>(
     directional_body(input, output, scratch)
 }
 
-/// The ring buffers, each `RING` rows of `pw` samples.
+/// A ring buffer of rows, each `stride` samples: the padded row's even columns, then its odd
+/// columns.
+struct Ring<'a> {
+    data: &'a mut [f32],
+    /// Rows held minus one (the count is a power of two).
+    mask: usize,
+    stride: usize,
+}
+
+impl Ring<'_> {
+    #[inline(always)]
+    fn row(&self, r: usize) -> &[f32] {
+        let start = (r & self.mask) * self.stride;
+        &self.data[start..start + self.stride]
+    }
+
+    #[inline(always)]
+    fn row_mut(&mut self, r: usize) -> &mut [f32] {
+        let start = (r & self.mask) * self.stride;
+        &mut self.data[start..start + self.stride]
+    }
+
+    /// Rows `r - N/2 ..= r + N/2`.
+    #[inline(always)]
+    fn rows<const N: usize>(&self, r: usize) -> [&[f32]; N] {
+        core::array::from_fn(|k| self.row(r + k - N / 2))
+    }
+}
+
+/// The ring buffers.
 struct Planes<'a> {
-    mosaic: &'a mut [f32],
-    diff_h: &'a mut [f32],
-    diff_v: &'a mut [f32],
-    grad_h: &'a mut [f32],
-    grad_v: &'a mut [f32],
+    mosaic: Ring<'a>,
+    diff_h: Ring<'a>,
+    diff_v: Ring<'a>,
+    grad_h: Ring<'a>,
+    grad_v: Ring<'a>,
     /// `grad_v` summed over 3 columns.
-    sum3_v: &'a mut [f32],
+    sum3_v: Ring<'a>,
     /// `grad_h` summed over 3 rows.
-    sum3_h: &'a mut [f32],
-    green: &'a mut [f32],
-    /// Horizontal/vertical classifier on the mosaic (1 = use the horizontal estimate).
-    class_hv: &'a mut [f32],
-    /// Diagonal classifier (1 = use the NE-SW estimate).
-    class_pq: &'a mut [f32],
-    red: &'a mut [f32],
-    blue: &'a mut [f32],
+    sum3_h: Ring<'a>,
+    /// At green pixels the horizontal/vertical classifier on the mosaic (1 = use the horizontal
+    /// estimate); at red and blue pixels the diagonal one (1 = use the NE-SW estimate).
+    class: Ring<'a>,
+    green: Ring<'a>,
+    /// At red and blue pixels, the other of the two (blue at red, red at blue).
+    opposite: Ring<'a>,
+    /// The output row's red, green and blue, one split row each.
+    out_rgb: [&'a mut [f32]; 3],
 }
 
 impl<'a> Planes<'a> {
-    fn split(scratch: &'a mut [f32], n: usize) -> Self {
-        let (mosaic, rest) = scratch.split_at_mut(n);
-        let (diff_h, rest) = rest.split_at_mut(n);
-        let (diff_v, rest) = rest.split_at_mut(n);
-        let (grad_h, rest) = rest.split_at_mut(n);
-        let (grad_v, rest) = rest.split_at_mut(n);
-        let (sum3_v, rest) = rest.split_at_mut(n);
-        let (sum3_h, rest) = rest.split_at_mut(n);
-        let (green, rest) = rest.split_at_mut(n);
-        let (class_hv, rest) = rest.split_at_mut(n);
-        let (class_pq, rest) = rest.split_at_mut(n);
-        let (red, blue) = rest.split_at_mut(n);
+    fn split(scratch: &'a mut [f32], stride: usize) -> Self {
+        let mut rest = scratch;
+        let mut take = |rows: usize| {
+            let (data, tail) = core::mem::take(&mut rest).split_at_mut(rows * stride);
+            rest = tail;
+            Ring {
+                data,
+                mask: rows - 1,
+                stride,
+            }
+        };
+        let [mosaic, diff_h, diff_v, grad_h, grad_v, sum3_v, sum3_h, class, green, opposite] =
+            RING_ROWS.map(&mut take);
+        let [r, g, b] = [take(1), take(1), take(1)];
         Planes {
             mosaic,
             diff_h,
@@ -226,11 +287,10 @@ impl<'a> Planes<'a> {
             grad_v,
             sum3_v,
             sum3_h,
+            class,
             green,
-            class_hv,
-            class_pq,
-            red,
-            blue,
+            opposite,
+            out_rgb: [r.data, g.data, b.data],
         }
     }
 }
@@ -240,26 +300,76 @@ struct Frame {
     w: usize,
     h: usize,
     pw: usize,
+    /// Samples in each half (even, odd columns) of a stored row.
+    half: usize,
     pattern: CfaPattern,
 }
 
-/// Row `r` of a ring plane.
-#[inline]
-fn row(plane: &[f32], r: usize, pw: usize) -> &[f32] {
-    let start = (r % RING) * pw;
-    &plane[start..start + pw]
+/// The columns `x = 2 i + parity` of a padded row that a stage computes, as a run of `n`
+/// consecutive samples in the row's `parity` half. Taps at column offsets from them are runs
+/// in one half too, so every stage's inner loop is a straight, vectorisable pass over slices
+/// of equal length.
+#[derive(Clone, Copy)]
+struct Span {
+    parity: usize,
+    /// First `i`.
+    lo: usize,
+    n: usize,
+    half: usize,
 }
 
-#[inline]
-fn row_mut(plane: &mut [f32], r: usize, pw: usize) -> &mut [f32] {
-    let start = (r % RING) * pw;
-    &mut plane[start..start + pw]
-}
+impl Span {
+    /// The columns of `parity` with `radius <= x < pw - radius`.
+    fn new(frame: &Frame, parity: usize, radius: usize) -> Span {
+        let lo = (radius + 1 - parity) / 2;
+        let hi = (frame.pw - radius + 1 - parity) / 2;
+        Span {
+            parity,
+            lo,
+            n: hi - lo,
+            half: frame.half,
+        }
+    }
 
-/// Rows `r - N/2 ..= r + N/2` of a ring plane.
-#[inline]
-fn rows<const N: usize>(plane: &[f32], r: usize, pw: usize) -> [&[f32]; N] {
-    core::array::from_fn(|k| row(plane, r + k - N / 2, pw))
+    /// The samples `d` columns right of the span's columns in a stored row.
+    #[inline(always)]
+    fn tap(self, row: &[f32], d: isize) -> &[f32] {
+        let at = self.parity as isize + d;
+        let start =
+            (self.lo as isize + at.div_euclid(2)) as usize + at.rem_euclid(2) as usize * self.half;
+        &row[start..start + self.n]
+    }
+
+    /// Taps `-(N/2) ..= N/2` of a row.
+    #[inline(always)]
+    fn taps<const N: usize>(self, row: &[f32]) -> [&[f32]; N] {
+        core::array::from_fn(|k| self.tap(row, k as isize - (N / 2) as isize))
+    }
+
+    /// Tap 0 of each row.
+    #[inline(always)]
+    fn column<const N: usize>(self, rows: [&[f32]; N]) -> [&[f32]; N] {
+        rows.map(|row| self.tap(row, 0))
+    }
+
+    /// Tap 0 of rows -3, -1, 1 and 3 of seven.
+    #[inline(always)]
+    fn odd_rows(self, rows: [&[f32]; 7]) -> [&[f32]; 4] {
+        [rows[0], rows[2], rows[4], rows[6]].map(|row| self.tap(row, 0))
+    }
+
+    /// Taps -3, -1, 1 and 3 of a row.
+    #[inline(always)]
+    fn odd_taps(self, row: &[f32]) -> [&[f32]; 4] {
+        [-3, -1, 1, 3].map(|d| self.tap(row, d))
+    }
+
+    /// The span's own samples in a row being written.
+    #[inline(always)]
+    fn out(self, row: &mut [f32]) -> &mut [f32] {
+        let start = self.lo + self.parity * self.half;
+        &mut row[start..start + self.n]
+    }
 }
 
 /// `v` clamped to `[0, 1]`; NaN gives 0. Without a branch (`max` then `min`), so the scalar
@@ -270,12 +380,11 @@ fn clamp01(v: f32) -> f32 {
     v.max(0.0).min(1.0)
 }
 
-/// The classifier at column `x` of the middle of three rows: its own value if it is more decided
-/// (further from 0.5) than the mean of its four diagonal neighbours, else that mean.
+/// A classifier refined by its neighbourhood: its own value `own` if it is more decided
+/// (further from 0.5) than the mean of its four diagonal neighbours `diagonal`, else that mean.
 #[inline(always)]
-fn refined(class: [&[f32]; 3], x: usize) -> f32 {
-    let own = class[1][x];
-    let around = 0.25 * (class[0][x - 1] + class[0][x + 1] + class[2][x - 1] + class[2][x + 1]);
+fn refined(own: f32, diagonal: [f32; 4]) -> f32 {
+    let around = 0.25 * (diagonal[0] + diagonal[1] + diagonal[2] + diagonal[3]);
     if (0.5 - own).abs() < (0.5 - around).abs() {
         around
     } else {
@@ -296,125 +405,157 @@ fn line_stat(v: [f32; 7]) -> f32 {
     s
 }
 
-/// Inverse-gradient weighted colour difference from two opposite neighbours: `x[k]` and
-/// `g[k]` are the chroma and green along the line at offsets `-3..=3` (`x` known at odd
-/// offsets), `g0` the green at the centre.
+/// Inverse-gradient weighted colour difference from two opposite neighbours: `x` is the
+/// chroma along the line at offsets -3, -1, +1, +3 and `g` the green at offsets `-2..=2`.
 #[inline(always)]
-fn pair_estimate(x: [f32; 7], g: [f32; 5]) -> f32 {
-    let before = EPS + (x[2] - x[4]).abs() + (x[2] - x[0]).abs() + (g[2] - g[0]).abs();
-    let after = EPS + (x[4] - x[2]).abs() + (x[4] - x[6]).abs() + (g[2] - g[4]).abs();
-    (after * (x[2] - g[1]) + before * (x[4] - g[3])) / (before + after)
+fn pair_estimate(x: [f32; 4], g: [f32; 5]) -> f32 {
+    let before = EPS + (x[1] - x[2]).abs() + (x[1] - x[0]).abs() + (g[2] - g[0]).abs();
+    let after = EPS + (x[2] - x[1]).abs() + (x[2] - x[3]).abs() + (g[2] - g[4]).abs();
+    (after * (x[1] - g[1]) + before * (x[2] - g[3])) / (before + after)
 }
 
 impl Frame {
-    /// 1.0 where padded column `x` of padded row `r` is green, else 0.0, as `(even x, odd x)`.
-    fn green_mask(&self, r: usize) -> [f32; 2] {
-        let is = |x: usize| f32::from(u8::from(self.pattern.colour_at(x, r) == CfaColour::Green));
-        [is(0), is(1)]
+    /// Parity of the green columns of padded row `r`.
+    fn green_parity(&self, r: usize) -> usize {
+        usize::from(self.pattern.colour_at(0, r) != CfaColour::Green)
     }
 
-    fn colour(&self, x: usize, r: usize) -> CfaColour {
-        self.pattern.colour_at(x & 1, r & 1)
+    /// Whether the red and blue pixels of padded row `r` are red.
+    fn red_row(&self, r: usize) -> bool {
+        self.pattern.colour_at(1 - self.green_parity(r), r) == CfaColour::Red
     }
 
     #[inline(always)]
     fn mosaic_row<T: Sample>(&self, input: &MosaicView<'_, T>, r: usize, p: &mut Planes<'_>) {
         let src = input.row(reflect(r as isize - HALO as isize, self.h));
-        let dst = row_mut(p.mosaic, r, self.pw);
-        for (d, s) in dst[HALO..HALO + self.w].iter_mut().zip(src) {
-            *d = s.to_unit();
+        let dst = p.mosaic.row_mut(r);
+        let (even, odd) = dst.split_at_mut(self.half);
+        let pairs = src.chunks_exact(2);
+        if let [last] = pairs.remainder() {
+            even[HALO / 2 + self.w / 2] = last.to_unit();
+        }
+        let halves = even[HALO / 2..].iter_mut().zip(&mut odd[HALO / 2..]);
+        for ((e, o), pair) in halves.zip(pairs) {
+            *e = pair[0].to_unit();
+            *o = pair[1].to_unit();
         }
         for x in (0..HALO).chain(HALO + self.w..self.pw) {
-            dst[x] = src[reflect(x as isize - HALO as isize, self.w)].to_unit();
+            let v = src[reflect(x as isize - HALO as isize, self.w)].to_unit();
+            let half = if x % 2 == 0 { &mut *even } else { &mut *odd };
+            half[x / 2] = v;
         }
     }
 
     #[inline(always)]
     fn diff_row(&self, r: usize, p: &mut Planes<'_>) {
-        let pw = self.pw;
-        let m: [&[f32]; 5] = rows(p.mosaic, r, pw);
-        let mask = self.green_mask(r);
-        let dh = row_mut(p.diff_h, r, pw);
-        for x in 2..pw - 2 {
-            let sign = 2.0 * mask[x & 1] - 1.0;
-            let c = m[2];
-            let along = 0.5 * (c[x - 1] + c[x + 1]) + 0.25 * (2.0 * c[x] - c[x - 2] - c[x + 2]);
-            dh[x] = sign * (c[x] - along);
-        }
-        let dv = row_mut(p.diff_v, r, pw);
-        for x in 2..pw - 2 {
-            let sign = 2.0 * mask[x & 1] - 1.0;
-            let along = 0.5 * (m[1][x] + m[3][x]) + 0.25 * (2.0 * m[2][x] - m[0][x] - m[4][x]);
-            dv[x] = sign * (m[2][x] - along);
+        let m: [&[f32]; 5] = p.mosaic.rows(r);
+        let gp = self.green_parity(r);
+        for parity in 0..2 {
+            let span = Span::new(self, parity, 2);
+            // G - C: the sample minus the estimate at green, the estimate minus it elsewhere.
+            let sign = if parity == gp { 1.0 } else { -1.0 };
+            let c: [&[f32]; 5] = span.taps(m[2]);
+            let dh = span.out(p.diff_h.row_mut(r));
+            for i in 0..dh.len() {
+                let along = 0.5 * (c[1][i] + c[3][i]) + 0.25 * (2.0 * c[2][i] - c[0][i] - c[4][i]);
+                dh[i] = sign * (c[2][i] - along);
+            }
+            let v = span.column(m);
+            let dv = span.out(p.diff_v.row_mut(r));
+            for i in 0..dv.len() {
+                let along = 0.5 * (v[1][i] + v[3][i]) + 0.25 * (2.0 * v[2][i] - v[0][i] - v[4][i]);
+                dv[i] = sign * (v[2][i] - along);
+            }
         }
     }
 
     #[inline(always)]
     fn grad_row(&self, r: usize, p: &mut Planes<'_>) {
-        let pw = self.pw;
-        let dh = row(p.diff_h, r, pw);
-        let gh = row_mut(p.grad_h, r, pw);
-        for x in 3..pw - 3 {
-            gh[x] = (dh[x - 1] - dh[x + 1]).abs();
-        }
-        let [up, _, down]: [&[f32]; 3] = rows(p.diff_v, r, pw);
-        let gv = row_mut(p.grad_v, r, pw);
-        for x in 3..pw - 3 {
-            gv[x] = (up[x] - down[x]).abs();
+        let dh = p.diff_h.row(r);
+        let [up, _, down]: [&[f32]; 3] = p.diff_v.rows(r);
+        for parity in 0..2 {
+            let span = Span::new(self, parity, 3);
+            let [left, _, right]: [&[f32]; 3] = span.taps(dh);
+            let gh = span.out(p.grad_h.row_mut(r));
+            for i in 0..gh.len() {
+                gh[i] = (left[i] - right[i]).abs();
+            }
+            let [up, down] = span.column([up, down]);
+            let gv = span.out(p.grad_v.row_mut(r));
+            for i in 0..gv.len() {
+                gv[i] = (up[i] - down[i]).abs();
+            }
         }
     }
 
     #[inline(always)]
     fn sum3_row(&self, r: usize, p: &mut Planes<'_>) {
-        let pw = self.pw;
-        let gv = row(p.grad_v, r, pw);
-        let s3v = row_mut(p.sum3_v, r, pw);
-        for x in 4..pw - 4 {
-            s3v[x] = gv[x - 1] + gv[x] + gv[x + 1];
-        }
-        let gh: [&[f32]; 3] = rows(p.grad_h, r, pw);
-        let s3h = row_mut(p.sum3_h, r, pw);
-        for x in 4..pw - 4 {
-            s3h[x] = gh[0][x] + gh[1][x] + gh[2][x];
+        let gv = p.grad_v.row(r);
+        let gh: [&[f32]; 3] = p.grad_h.rows(r);
+        for parity in 0..2 {
+            let span = Span::new(self, parity, 4);
+            let v: [&[f32]; 3] = span.taps(gv);
+            let s3v = span.out(p.sum3_v.row_mut(r));
+            for i in 0..s3v.len() {
+                s3v[i] = v[0][i] + v[1][i] + v[2][i];
+            }
+            let h = span.column(gh);
+            let s3h = span.out(p.sum3_h.row_mut(r));
+            for i in 0..s3h.len() {
+                s3h[i] = h[0][i] + h[1][i] + h[2][i];
+            }
         }
     }
 
     #[inline(always)]
     fn class_row(&self, r: usize, p: &mut Planes<'_>) {
-        let pw = self.pw;
-        let m: [&[f32]; 7] = rows(p.mosaic, r, pw);
-        let hv = row_mut(p.class_hv, r, pw);
-        for x in 3..pw - 3 {
-            let v = line_stat(core::array::from_fn(|k| m[k][x]));
-            let hz = line_stat(core::array::from_fn(|k| m[3][x + k - 3]));
-            hv[x] = v / (v + hz);
+        let m: [&[f32]; 7] = p.mosaic.rows(r);
+        let gp = self.green_parity(r);
+        // Horizontal/vertical at green pixels.
+        let span = Span::new(self, gp, 3);
+        let v = span.column(m);
+        let row: [&[f32]; 7] = span.taps(m[3]);
+        let hv = span.out(p.class.row_mut(r));
+        for i in 0..hv.len() {
+            let vertical = line_stat(core::array::from_fn(|k| v[k][i]));
+            let horizontal = line_stat(core::array::from_fn(|k| row[k][i]));
+            hv[i] = vertical / (vertical + horizontal);
         }
-        let pq = row_mut(p.class_pq, r, pw);
-        for x in 3..pw - 3 {
-            let pp = line_stat(core::array::from_fn(|k| m[k][x + k - 3]));
-            let q = line_stat(core::array::from_fn(|k| m[k][x + 3 - k]));
-            pq[x] = pp / (pp + q);
+        // The diagonals at red and blue pixels.
+        let span = Span::new(self, 1 - gp, 3);
+        let ne: [&[f32]; 7] = core::array::from_fn(|k| span.tap(m[k], k as isize - 3));
+        let nw: [&[f32]; 7] = core::array::from_fn(|k| span.tap(m[k], 3 - k as isize));
+        let pq = span.out(p.class.row_mut(r));
+        for i in 0..pq.len() {
+            let along_p = line_stat(core::array::from_fn(|k| ne[k][i]));
+            let along_q = line_stat(core::array::from_fn(|k| nw[k][i]));
+            pq[i] = along_p / (along_p + along_q);
         }
     }
 
     #[inline(always)]
     fn green_row(&self, r: usize, p: &mut Planes<'_>) {
-        let pw = self.pw;
-        let m: [&[f32]; 7] = rows(p.mosaic, r, pw);
-        let dv: [&[f32]; 7] = rows(p.diff_v, r, pw);
-        let dh = row(p.diff_h, r, pw);
-        let s3v: [&[f32]; 5] = rows(p.sum3_v, r, pw);
-        let s3h = row(p.sum3_h, r, pw);
-        let mask = self.green_mask(r);
-        let out = row_mut(p.green, r, pw);
-        let c = m[3];
-        for x in 6..pw - 6 {
-            let sn = s3v[2][x] + s3v[1][x] + s3v[0][x];
-            let ss = s3v[2][x] + s3v[3][x] + s3v[4][x];
-            let sw = s3h[x] + s3h[x - 1] + s3h[x - 2];
-            let se = s3h[x] + s3h[x + 1] + s3h[x + 2];
-            let box_v = sn + ss - s3v[2][x];
-            let box_h = sw + se - s3h[x];
+        let m: [&[f32]; 7] = p.mosaic.rows(r);
+        let gp = self.green_parity(r);
+        // Green pixels keep their sample.
+        let copy = Span::new(self, gp, 6);
+        copy.out(p.green.row_mut(r))
+            .copy_from_slice(copy.tap(m[3], 0));
+        let span = Span::new(self, 1 - gp, 6);
+        let col = span.column(m);
+        let c: [&[f32]; 7] = span.taps(m[3]);
+        let dv = span.column(p.diff_v.rows::<7>(r));
+        let dh: [&[f32]; 7] = span.taps(p.diff_h.row(r));
+        let s3v = span.column(p.sum3_v.rows::<5>(r));
+        let s3h: [&[f32]; 5] = span.taps(p.sum3_h.row(r));
+        let out = span.out(p.green.row_mut(r));
+        for i in 0..out.len() {
+            let sn = s3v[2][i] + s3v[1][i] + s3v[0][i];
+            let ss = s3v[2][i] + s3v[3][i] + s3v[4][i];
+            let sw = s3h[2][i] + s3h[1][i] + s3h[0][i];
+            let se = s3h[2][i] + s3h[3][i] + s3h[4][i];
+            let box_v = sn + ss - s3v[2][i];
+            let box_h = sw + se - s3h[2][i];
             let (sv, sh) = (box_v * box_v + TINY, box_h * box_h + TINY);
             let class = sv / (sv + sh);
             let (wn, ws, ww, we) = (
@@ -428,113 +569,138 @@ impl Frame {
             let mut dw = 0.0;
             let mut de = 0.0;
             for (k, f) in SMOOTH.iter().enumerate() {
-                dn += f * dv[3 - k][x];
-                ds += f * dv[3 + k][x];
-                dw += f * dh[x - k];
-                de += f * dh[x + k];
+                dn += f * dv[3 - k][i];
+                ds += f * dv[3 + k][i];
+                dw += f * dh[3 - k][i];
+                de += f * dh[3 + k][i];
             }
-            let g_diff = c[x] + (wn * dn + ws * ds + ww * dw + we * de) / (wn + ws + ww + we);
-            let col = |k: usize| m[k][x];
-            let gn =
-                EPS + (col(4) - col(2)).abs() + (col(3) - col(1)).abs() + (col(2) - col(0)).abs();
-            let gs =
-                EPS + (col(2) - col(4)).abs() + (col(3) - col(5)).abs() + (col(4) - col(6)).abs();
+            let g_diff = c[3][i] + (wn * dn + ws * ds + ww * dw + we * de) / (wn + ws + ww + we);
+            let gn = EPS
+                + (col[4][i] - col[2][i]).abs()
+                + (col[3][i] - col[1][i]).abs()
+                + (col[2][i] - col[0][i]).abs();
+            let gs = EPS
+                + (col[2][i] - col[4][i]).abs()
+                + (col[3][i] - col[5][i]).abs()
+                + (col[4][i] - col[6][i]).abs();
             let gw = EPS
-                + (c[x + 1] - c[x - 1]).abs()
-                + (c[x] - c[x - 2]).abs()
-                + (c[x - 1] - c[x - 3]).abs();
+                + (c[4][i] - c[2][i]).abs()
+                + (c[3][i] - c[1][i]).abs()
+                + (c[2][i] - c[0][i]).abs();
             let ge = EPS
-                + (c[x - 1] - c[x + 1]).abs()
-                + (c[x] - c[x + 2]).abs()
-                + (c[x + 1] - c[x + 3]).abs();
-            let vertical = (gs * col(2) + gn * col(4)) / (gn + gs);
-            let horizontal = (ge * c[x - 1] + gw * c[x + 1]) / (gw + ge);
+                + (c[2][i] - c[4][i]).abs()
+                + (c[3][i] - c[5][i]).abs()
+                + (c[4][i] - c[6][i]).abs();
+            let vertical = (gs * col[2][i] + gn * col[4][i]) / (gn + gs);
+            let horizontal = (ge * c[2][i] + gw * c[4][i]) / (gw + ge);
             let g_plain = class * horizontal + (1.0 - class) * vertical;
             let diff_mean = sn.min(ss).min(sw.min(se)) * (1.0 / 9.0);
             let raw_mean = gn.min(gs).min(gw.min(ge)) * (1.0 / 3.0);
             let a = 0.6 + 0.35 * raw_mean / (raw_mean + 2.0 * diff_mean + 1e-9);
-            let estimate = clamp01(a * g_diff + (1.0 - a) * g_plain);
-            let is_green = mask[x & 1];
-            out[x] = is_green * c[x] + (1.0 - is_green) * estimate;
+            out[i] = clamp01(a * g_diff + (1.0 - a) * g_plain);
         }
     }
 
     #[inline(always)]
     fn chroma_row(&self, r: usize, p: &mut Planes<'_>) {
-        let pw = self.pw;
-        let m: [&[f32]; 7] = rows(p.mosaic, r, pw);
-        let g: [&[f32]; 5] = rows(p.green, r, pw);
-        let pq: [&[f32]; 3] = rows(p.class_pq, r, pw);
-        // 1.0 where the pixel is red (blue), by column parity.
-        let is = |x: usize, colour: CfaColour| f32::from(u8::from(self.colour(x, r) == colour));
-        let red_mask = [is(0, CfaColour::Red), is(1, CfaColour::Red)];
-        let blue_mask = [is(0, CfaColour::Blue), is(1, CfaColour::Blue)];
-        // A function, not a closure: a closure is not inlined into the AVX2 entry point, and
-        // compiled on its own it is called per pixel with baseline instructions.
-        #[inline(always)]
-        fn opposite_at(m: &[&[f32]; 7], g: &[&[f32]; 5], pq: [&[f32]; 3], x: usize) -> f32 {
-            let est_p = pair_estimate(
-                core::array::from_fn(|k| m[k][x + k - 3]),
-                core::array::from_fn(|k| g[k][x + k - 2]),
-            );
-            let est_q = pair_estimate(
-                core::array::from_fn(|k| m[k][x + 3 - k]),
-                core::array::from_fn(|k| g[k][x + 2 - k]),
-            );
-            let c = refined(pq, x);
-            clamp01(g[2][x] + (1.0 - c) * est_p + c * est_q)
-        }
-        let red = row_mut(p.red, r, pw);
-        let blue = row_mut(p.blue, r, pw);
-        for x in 8..pw - 8 {
-            let own = m[3][x];
-            let opposite = opposite_at(&m, &g, pq, x);
-            let (rm, bm) = (red_mask[x & 1], blue_mask[x & 1]);
-            // At red: red = own, blue = opposite; at blue the reverse; at green both 0.
-            red[x] = rm * own + bm * opposite;
-            blue[x] = bm * own + rm * opposite;
+        let span = Span::new(self, 1 - self.green_parity(r), 8);
+        let m: [&[f32]; 7] = p.mosaic.rows(r);
+        let g: [&[f32]; 5] = p.green.rows(r);
+        let class: [&[f32]; 3] = p.class.rows(r);
+        // Along the NE-SW diagonal (p) and the NW-SE one (q): chroma at offsets -3, -1, 1, 3
+        // and green at -2..=2.
+        let x_p: [&[f32]; 4] = core::array::from_fn(|k| span.tap(m[2 * k], 2 * k as isize - 3));
+        let g_p: [&[f32]; 5] = core::array::from_fn(|k| span.tap(g[k], k as isize - 2));
+        let x_q: [&[f32]; 4] = core::array::from_fn(|k| span.tap(m[2 * k], 3 - 2 * k as isize));
+        let g_q: [&[f32]; 5] = core::array::from_fn(|k| span.tap(g[k], 2 - k as isize));
+        let own = span.tap(class[1], 0);
+        let diagonal = [
+            span.tap(class[0], -1),
+            span.tap(class[0], 1),
+            span.tap(class[2], -1),
+            span.tap(class[2], 1),
+        ];
+        let out = span.out(p.opposite.row_mut(r));
+        for i in 0..out.len() {
+            let est_p = pair_estimate(x_p.map(|s| s[i]), g_p.map(|s| s[i]));
+            let est_q = pair_estimate(x_q.map(|s| s[i]), g_q.map(|s| s[i]));
+            let c = refined(own[i], diagonal.map(|s| s[i]));
+            out[i] = clamp01(g_p[2][i] + (1.0 - c) * est_p + c * est_q);
         }
     }
 
-    /// Red or blue (`plane`) at a green pixel from its four cardinal neighbours, steered by
-    /// the refined classifier `c`. A function, not a closure, so it inlines into the AVX2
-    /// entry point.
     #[inline(always)]
-    fn at_green(plane: [&[f32]; 7], g: &[&[f32]; 5], c: f32, x: usize) -> f32 {
-        let vertical = pair_estimate(
-            core::array::from_fn(|k| plane[k][x]),
-            core::array::from_fn(|k| g[k][x]),
-        );
-        let horizontal = pair_estimate(
-            core::array::from_fn(|k| plane[3][x + k - 3]),
-            core::array::from_fn(|k| g[2][x + k - 2]),
-        );
-        clamp01(g[2][x] + (1.0 - c) * vertical + c * horizontal)
-    }
-
-    #[inline(always)]
-    fn output_row<T: Sample>(&self, r: usize, p: &Planes<'_>, out: &mut [T]) {
-        let pw = self.pw;
-        let m = row(p.mosaic, r, pw);
-        let g: [&[f32]; 5] = rows(p.green, r, pw);
-        let hv: [&[f32]; 3] = rows(p.class_hv, r, pw);
-        let red: [&[f32]; 7] = rows(p.red, r, pw);
-        let blue: [&[f32]; 7] = rows(p.blue, r, pw);
-        let mask = self.green_mask(r);
-        for (o, x) in out.chunks_exact_mut(3).zip(HALO..HALO + self.w) {
-            let c = refined(hv, x);
-            let rgb = if mask[x & 1] > 0.5 {
-                [
-                    Self::at_green(red, &g, c, x),
-                    m[x],
-                    Self::at_green(blue, &g, c, x),
-                ]
-            } else {
-                [red[3][x], g[2][x], blue[3][x]]
+    fn output_row<T: Sample>(&self, r: usize, p: &mut Planes<'_>, out: &mut [T]) {
+        let gp = self.green_parity(r);
+        let m: [&[f32]; 7] = p.mosaic.rows(r);
+        let opposite: [&[f32]; 7] = p.opposite.rows(r);
+        let g: [&[f32]; 5] = p.green.rows(r);
+        let class: [&[f32]; 3] = p.class.rows(r);
+        let [red, green, blue] = &mut p.out_rgb;
+        // At green pixels: red and blue from the four cardinal neighbours, steered by the
+        // refined horizontal/vertical classifier. Along the row the neighbours are this row's
+        // red (blue) pixels, whose samples are in the mosaic; along the column they are the
+        // other colour's pixels, whose red (blue) is in `opposite`.
+        let span = Span::new(self, gp, HALO);
+        let (red_v, red_h, blue_v, blue_h) = if self.red_row(r) {
+            (opposite, m[3], m, opposite[3])
+        } else {
+            (m, opposite[3], opposite, m[3])
+        };
+        let (red_v, red_h) = (span.odd_rows(red_v), span.odd_taps(red_h));
+        let (blue_v, blue_h) = (span.odd_rows(blue_v), span.odd_taps(blue_h));
+        let g_v = span.column(g);
+        let g_h: [&[f32]; 5] = span.taps(g[2]);
+        let own = span.tap(class[1], 0);
+        let diagonal = [
+            span.tap(class[0], -1),
+            span.tap(class[0], 1),
+            span.tap(class[2], -1),
+            span.tap(class[2], 1),
+        ];
+        let (red_g, blue_g) = (span.out(red), span.out(blue));
+        for i in 0..red_g.len() {
+            let c = refined(own[i], diagonal.map(|s| s[i]));
+            let gv = g_v.map(|s| s[i]);
+            let gh = g_h.map(|s| s[i]);
+            let at = |v: [&[f32]; 4], h: [&[f32]; 4]| {
+                let vertical = pair_estimate(v.map(|s| s[i]), gv);
+                let horizontal = pair_estimate(h.map(|s| s[i]), gh);
+                clamp01(gv[2] + (1.0 - c) * vertical + c * horizontal)
             };
-            o[0] = T::from_unit(rgb[0]);
-            o[1] = T::from_unit(rgb[1]);
-            o[2] = T::from_unit(rgb[2]);
+            red_g[i] = at(red_v, red_h);
+            blue_g[i] = at(blue_v, blue_h);
+        }
+        span.out(green).copy_from_slice(span.tap(m[3], 0));
+        // At red and blue pixels: the sample, the green and the opposite colour.
+        let span = Span::new(self, 1 - gp, HALO);
+        let (own, other) = (span.tap(m[3], 0), span.tap(opposite[3], 0));
+        let (own_out, other_out) = if self.red_row(r) {
+            (&mut *red, &mut *blue)
+        } else {
+            (&mut *blue, &mut *red)
+        };
+        span.out(own_out).copy_from_slice(own);
+        span.out(other_out).copy_from_slice(other);
+        span.out(green).copy_from_slice(span.tap(g[2], 0));
+        // Interleave, two pixels (an even and an odd column) at a time.
+        let start = HALO / 2;
+        let at = |plane: &[f32], parity: usize, k: usize| {
+            T::from_unit(plane[parity * self.half + start + k])
+        };
+        let planes = [&*red, &*green, &*blue];
+        let mut pairs = out.chunks_exact_mut(6);
+        for (k, o) in (&mut pairs).enumerate() {
+            for c in 0..3 {
+                o[c] = at(planes[c], 0, k);
+                o[3 + c] = at(planes[c], 1, k);
+            }
+        }
+        if let [r_last, g_last, b_last] = pairs.into_remainder() {
+            let k = self.w / 2;
+            *r_last = at(planes[0], 0, k);
+            *g_last = at(planes[1], 0, k);
+            *b_last = at(planes[2], 0, k);
         }
     }
 }
