@@ -372,6 +372,12 @@ impl Span {
     }
 }
 
+/// Element `i` of each of `N` slices.
+#[inline(always)]
+fn at<const N: usize>(slices: &[&[f32]; N], i: usize) -> [f32; N] {
+    core::array::from_fn(|k| slices[k][i])
+}
+
 /// `v` clamped to `[0, 1]`; NaN gives 0. Without a branch (`max` then `min`), so the scalar
 /// rows do not mispredict on it.
 #[inline(always)]
@@ -622,9 +628,9 @@ impl Frame {
         ];
         let out = span.out(p.opposite.row_mut(r));
         for i in 0..out.len() {
-            let est_p = pair_estimate(x_p.map(|s| s[i]), g_p.map(|s| s[i]));
-            let est_q = pair_estimate(x_q.map(|s| s[i]), g_q.map(|s| s[i]));
-            let c = refined(own[i], diagonal.map(|s| s[i]));
+            let est_p = pair_estimate(at(&x_p, i), at(&g_p, i));
+            let est_q = pair_estimate(at(&x_q, i), at(&g_q, i));
+            let c = refined(own[i], at(&diagonal, i));
             out[i] = clamp01(g_p[2][i] + (1.0 - c) * est_p + c * est_q);
         }
     }
@@ -660,16 +666,14 @@ impl Frame {
         ];
         let (red_g, blue_g) = (span.out(red), span.out(blue));
         for i in 0..red_g.len() {
-            let c = refined(own[i], diagonal.map(|s| s[i]));
-            let gv = g_v.map(|s| s[i]);
-            let gh = g_h.map(|s| s[i]);
-            let at = |v: [&[f32]; 4], h: [&[f32]; 4]| {
-                let vertical = pair_estimate(v.map(|s| s[i]), gv);
-                let horizontal = pair_estimate(h.map(|s| s[i]), gh);
-                clamp01(gv[2] + (1.0 - c) * vertical + c * horizontal)
-            };
-            red_g[i] = at(red_v, red_h);
-            blue_g[i] = at(blue_v, blue_h);
+            let c = refined(own[i], at(&diagonal, i));
+            let (gv, gh) = (at(&g_v, i), at(&g_h, i));
+            let vertical = pair_estimate(at(&red_v, i), gv);
+            let horizontal = pair_estimate(at(&red_h, i), gh);
+            red_g[i] = clamp01(gv[2] + (1.0 - c) * vertical + c * horizontal);
+            let vertical = pair_estimate(at(&blue_v, i), gv);
+            let horizontal = pair_estimate(at(&blue_h, i), gh);
+            blue_g[i] = clamp01(gv[2] + (1.0 - c) * vertical + c * horizontal);
         }
         span.out(green).copy_from_slice(span.tap(m[3], 0));
         // At red and blue pixels: the sample, the green and the opposite colour.
