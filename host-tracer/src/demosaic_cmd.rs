@@ -4,7 +4,7 @@
 use std::path::Path;
 use std::time::Instant;
 
-use isp_core::demosaic::directional::{directional, scratch_len};
+use isp_core::demosaic::directional::{directional, directional_fixed, scratch_len};
 use isp_core::demosaic::{bilinear, mhc, nearest, Border};
 use isp_core::frame::{IntSample, MosaicView, RgbViewMut};
 use isp_core::CfaPattern;
@@ -25,16 +25,19 @@ pub enum Method {
     Mhc,
     /// The high-quality directional method (`isp_core::demosaic::directional`).
     Directional,
+    /// The same in integer arithmetic (`directional_fixed`), for cores without an FPU.
+    DirectionalFixed,
 }
 
 impl Method {
     /// Every method, cheapest first.
-    pub const ALL: [Method; 5] = [
+    pub const ALL: [Method; 6] = [
         Method::Nearest,
         Method::Bilinear,
         Method::BilinearOpenCv,
         Method::Mhc,
         Method::Directional,
+        Method::DirectionalFixed,
     ];
 
     /// The name used on the command line and in reports.
@@ -45,6 +48,7 @@ impl Method {
             Method::BilinearOpenCv => "bilinear-opencv",
             Method::Mhc => "mhc",
             Method::Directional => "directional",
+            Method::DirectionalFixed => "directional-fixed",
         }
     }
 
@@ -93,6 +97,11 @@ impl Method {
                     .map_err(|e| e.to_string());
                 }
                 directional(&mosaic, &mut view, &mut scratch)
+            }
+            Method::DirectionalFixed => {
+                let len =
+                    scratch_len(w).ok_or_else(|| format!("a {w}-pixel-wide frame is too wide"))?;
+                directional_fixed(&mosaic, &mut view, &mut vec![0i32; len])
             }
         }
         .map_err(|e| e.to_string())

@@ -46,6 +46,9 @@ use super::{reflect, same_size, Method};
 use crate::frame::{MosaicView, RgbViewMut, Sample};
 use crate::{CfaColour, CfaPattern, IspError};
 
+mod fixed;
+pub use fixed::directional_fixed;
+
 /// Rows and columns of context outside the frame (even, so padded coordinates keep the
 /// frame's CFA parity).
 pub const HALO: usize = 12;
@@ -55,6 +58,8 @@ const EPS: f32 = 1e-5;
 const TINY: f32 = 1e-20;
 /// One-sided smoothing of the colour differences, centre first.
 const SMOOTH: [f32; 4] = [0.56, 0.35, 0.08, 0.01];
+/// [`SMOOTH`] in percent, for the integer method.
+const SMOOTH_PERCENT: [i64; 4] = [56, 35, 8, 1];
 
 /// Rows held by each ring buffer (powers of two), in the order [`Planes::split`] takes them:
 /// each is at least the span from the row a stage writes to the oldest row a later stage still
@@ -135,58 +140,33 @@ fn directional_body<T: Sample>(
     output: &mut RgbViewMut<'_, T>,
     scratch: &mut [f32],
 ) -> Result<(), IspError> {
-    let (w, h) = same_size(input, output)?;
-    if w < 2 || h < 2 {
-        return super::demosaic(Method::Bilinear, input, output);
-    }
-    let too_wide = IspError::InvalidParameter {
-        name: "width",
-        allowed: "small enough that scratch_len(width) fits in usize",
+    let Some(frame) = prepare(input, output, scratch.len())? else {
+        return Ok(());
     };
-    let needed = scratch_len(w).ok_or(too_wide)?;
-    let stride = row_len(w).ok_or(too_wide)?;
-    if scratch.len() < needed {
-        return Err(IspError::InvalidParameter {
-            name: "scratch",
-            allowed: "at least scratch_len(width) samples",
-        });
-    }
-    let frame = Frame {
-        w,
-        h,
-        pw: w + 2 * HALO,
-        half: stride / 2,
-        pattern: input.pattern(),
-    };
-    let mut p = Planes::split(&mut scratch[..needed], stride);
-    let rows = h + 2 * HALO;
-    // Each stage's lag behind the mosaic row just read, and its radius (rows and columns at
-    // each edge of the padded frame it cannot compute).
-    for t in 0..rows + 11 {
-        if t < rows {
-            frame.mosaic_row(input, t, &mut p);
+    let mut p = Planes::split(scratch, frame.half * 2);
+    let h = frame.h;
+    for t in 0..schedule_len(h) {
+        let due = Due::at(t, h);
+        if let Some(r) = due.mosaic {
+            frame.read_row(input, r, &mut p.mosaic, T::to_unit);
         }
-        let valid = |lag: usize, radius: usize| {
-            t.checked_sub(lag)
-                .filter(|r| *r >= radius && *r + radius < rows)
-        };
-        if let Some(r) = valid(2, 2) {
+        if let Some(r) = due.diff {
             frame.diff_row(r, &mut p);
         }
-        if let Some(r) = valid(3, 3) {
+        if let Some(r) = due.grad_class {
             frame.grad_row(r, &mut p);
             frame.class_row(r, &mut p);
         }
-        if let Some(r) = valid(4, 4) {
+        if let Some(r) = due.sum3 {
             frame.sum3_row(r, &mut p);
         }
-        if let Some(r) = valid(6, 6) {
+        if let Some(r) = due.green {
             frame.green_row(r, &mut p);
         }
-        if let Some(r) = valid(8, 8) {
+        if let Some(r) = due.chroma {
             frame.chroma_row(r, &mut p);
         }
-        if let Some(r) = t.checked_sub(11).filter(|r| (HALO..HALO + h).contains(r)) {
+        if let Some(r) = due.output {
             frame.output_row(r, &mut p, output.row_mut(r - HALO));
         }
     }
@@ -214,58 +194,133 @@ pub fn directional_avx2<T: Sample>(
     directional_body(input, output, scratch)
 }
 
+/// Checks the sizes and the scratch length; the frame's geometry, or `None` when the frame is
+/// too thin for the window and has been demosaiced by the fallback already.
+#[inline(always)]
+fn prepare<T: Sample>(
+    input: &MosaicView<'_, T>,
+    output: &mut RgbViewMut<'_, T>,
+    scratch_len_given: usize,
+) -> Result<Option<Frame>, IspError> {
+    let (w, h) = same_size(input, output)?;
+    if w < 2 || h < 2 {
+        super::demosaic(Method::Bilinear, input, output)?;
+        return Ok(None);
+    }
+    let too_wide = IspError::InvalidParameter {
+        name: "width",
+        allowed: "small enough that scratch_len(width) fits in usize",
+    };
+    let needed = scratch_len(w).ok_or(too_wide)?;
+    let stride = row_len(w).ok_or(too_wide)?;
+    if scratch_len_given < needed {
+        return Err(IspError::InvalidParameter {
+            name: "scratch",
+            allowed: "at least scratch_len(width) samples",
+        });
+    }
+    Ok(Some(Frame {
+        w,
+        h,
+        pw: w + 2 * HALO,
+        half: stride / 2,
+        pattern: input.pattern(),
+    }))
+}
+
+/// Steps of the schedule for a frame `h` rows high: one per padded row read, plus the output
+/// stage's lag.
+fn schedule_len(h: usize) -> usize {
+    h + 2 * HALO + 11
+}
+
+/// The padded row each stage works on at step `t` of the schedule, if any. Each stage runs a
+/// fixed number of rows (its lag) behind the mosaic row read at step `t`, far enough for every
+/// row it reads to be written, and skips the rows within its radius of the padded frame's top
+/// and bottom (it cannot compute them and nothing reads them).
+struct Due {
+    mosaic: Option<usize>,
+    diff: Option<usize>,
+    grad_class: Option<usize>,
+    sum3: Option<usize>,
+    green: Option<usize>,
+    chroma: Option<usize>,
+    /// Only the frame's own rows.
+    output: Option<usize>,
+}
+
+impl Due {
+    #[inline(always)]
+    fn at(t: usize, h: usize) -> Due {
+        let rows = h + 2 * HALO;
+        let valid = |lag: usize, radius: usize| {
+            t.checked_sub(lag)
+                .filter(|r| *r >= radius && *r + radius < rows)
+        };
+        Due {
+            mosaic: (t < rows).then_some(t),
+            diff: valid(2, 2),
+            grad_class: valid(3, 3),
+            sum3: valid(4, 4),
+            green: valid(6, 6),
+            chroma: valid(8, 8),
+            output: t.checked_sub(11).filter(|r| (HALO..HALO + h).contains(r)),
+        }
+    }
+}
+
 /// A ring buffer of rows, each `stride` samples: the padded row's even columns, then its odd
 /// columns.
-struct Ring<'a> {
-    data: &'a mut [f32],
+struct Ring<'a, E> {
+    data: &'a mut [E],
     /// Rows held minus one (the count is a power of two).
     mask: usize,
     stride: usize,
 }
 
-impl Ring<'_> {
+impl<E> Ring<'_, E> {
     #[inline(always)]
-    fn row(&self, r: usize) -> &[f32] {
+    fn row(&self, r: usize) -> &[E] {
         let start = (r & self.mask) * self.stride;
         &self.data[start..start + self.stride]
     }
 
     #[inline(always)]
-    fn row_mut(&mut self, r: usize) -> &mut [f32] {
+    fn row_mut(&mut self, r: usize) -> &mut [E] {
         let start = (r & self.mask) * self.stride;
         &mut self.data[start..start + self.stride]
     }
 
     /// Rows `r - N/2 ..= r + N/2`.
     #[inline(always)]
-    fn rows<const N: usize>(&self, r: usize) -> [&[f32]; N] {
+    fn rows<const N: usize>(&self, r: usize) -> [&[E]; N] {
         core::array::from_fn(|k| self.row(r + k - N / 2))
     }
 }
 
-/// The ring buffers.
-struct Planes<'a> {
-    mosaic: Ring<'a>,
-    diff_h: Ring<'a>,
-    diff_v: Ring<'a>,
-    grad_h: Ring<'a>,
-    grad_v: Ring<'a>,
+/// The ring buffers, of `f32` in [`directional`] and of `i32` in [`directional_fixed`].
+struct Planes<'a, E> {
+    mosaic: Ring<'a, E>,
+    diff_h: Ring<'a, E>,
+    diff_v: Ring<'a, E>,
+    grad_h: Ring<'a, E>,
+    grad_v: Ring<'a, E>,
     /// `grad_v` summed over 3 columns.
-    sum3_v: Ring<'a>,
+    sum3_v: Ring<'a, E>,
     /// `grad_h` summed over 3 rows.
-    sum3_h: Ring<'a>,
+    sum3_h: Ring<'a, E>,
     /// At green pixels the horizontal/vertical classifier on the mosaic (1 = use the horizontal
     /// estimate); at red and blue pixels the diagonal one (1 = use the NE-SW estimate).
-    class: Ring<'a>,
-    green: Ring<'a>,
+    class: Ring<'a, E>,
+    green: Ring<'a, E>,
     /// At red and blue pixels, the other of the two (blue at red, red at blue).
-    opposite: Ring<'a>,
+    opposite: Ring<'a, E>,
     /// The output row's red, green and blue, one split row each.
-    out_rgb: [&'a mut [f32]; 3],
+    out_rgb: [&'a mut [E]; 3],
 }
 
-impl<'a> Planes<'a> {
-    fn split(scratch: &'a mut [f32], stride: usize) -> Self {
+impl<'a, E> Planes<'a, E> {
+    fn split(scratch: &'a mut [E], stride: usize) -> Self {
         let mut rest = scratch;
         let mut take = |rows: usize| {
             let (data, tail) = core::mem::take(&mut rest).split_at_mut(rows * stride);
@@ -333,7 +388,7 @@ impl Span {
 
     /// The samples `d` columns right of the span's columns in a stored row.
     #[inline(always)]
-    fn tap(self, row: &[f32], d: isize) -> &[f32] {
+    fn tap<E>(self, row: &[E], d: isize) -> &[E] {
         let at = self.parity as isize + d;
         let start =
             (self.lo as isize + at.div_euclid(2)) as usize + at.rem_euclid(2) as usize * self.half;
@@ -342,31 +397,42 @@ impl Span {
 
     /// Taps `-(N/2) ..= N/2` of a row.
     #[inline(always)]
-    fn taps<const N: usize>(self, row: &[f32]) -> [&[f32]; N] {
+    fn taps<E, const N: usize>(self, row: &[E]) -> [&[E]; N] {
         core::array::from_fn(|k| self.tap(row, k as isize - (N / 2) as isize))
     }
 
     /// Tap 0 of each row.
     #[inline(always)]
-    fn column<const N: usize>(self, rows: [&[f32]; N]) -> [&[f32]; N] {
+    fn column<E, const N: usize>(self, rows: [&[E]; N]) -> [&[E]; N] {
         rows.map(|row| self.tap(row, 0))
     }
 
     /// Tap 0 of rows -3, -1, 1 and 3 of seven.
     #[inline(always)]
-    fn odd_rows(self, rows: [&[f32]; 7]) -> [&[f32]; 4] {
+    fn odd_rows<E>(self, rows: [&[E]; 7]) -> [&[E]; 4] {
         [rows[0], rows[2], rows[4], rows[6]].map(|row| self.tap(row, 0))
     }
 
     /// Taps -3, -1, 1 and 3 of a row.
     #[inline(always)]
-    fn odd_taps(self, row: &[f32]) -> [&[f32]; 4] {
+    fn odd_taps<E>(self, row: &[E]) -> [&[E]; 4] {
         [-3, -1, 1, 3].map(|d| self.tap(row, d))
+    }
+
+    /// The four diagonal neighbours (NW, NE, SW, SE) in rows -1..=1.
+    #[inline(always)]
+    fn diagonals<E>(self, rows: [&[E]; 3]) -> [&[E]; 4] {
+        [
+            self.tap(rows[0], -1),
+            self.tap(rows[0], 1),
+            self.tap(rows[2], -1),
+            self.tap(rows[2], 1),
+        ]
     }
 
     /// The span's own samples in a row being written.
     #[inline(always)]
-    fn out(self, row: &mut [f32]) -> &mut [f32] {
+    fn out<E>(self, row: &mut [E]) -> &mut [E] {
         let start = self.lo + self.parity * self.half;
         &mut row[start..start + self.n]
     }
@@ -374,7 +440,7 @@ impl Span {
 
 /// Element `i` of each of `N` slices.
 #[inline(always)]
-fn at<const N: usize>(slices: &[&[f32]; N], i: usize) -> [f32; N] {
+fn at<E: Copy, const N: usize>(slices: &[&[E]; N], i: usize) -> [E; N] {
     core::array::from_fn(|k| slices[k][i])
 }
 
@@ -431,29 +497,64 @@ impl Frame {
         self.pattern.colour_at(1 - self.green_parity(r), r) == CfaColour::Red
     }
 
+    /// Reads padded row `r` of the mosaic (reflected at the frame's edges) into `ring`,
+    /// converting each sample with `convert`.
     #[inline(always)]
-    fn mosaic_row<T: Sample>(&self, input: &MosaicView<'_, T>, r: usize, p: &mut Planes<'_>) {
+    fn read_row<T: Sample, E: Copy, F: Fn(T) -> E>(
+        &self,
+        input: &MosaicView<'_, T>,
+        r: usize,
+        ring: &mut Ring<'_, E>,
+        convert: F,
+    ) {
         let src = input.row(reflect(r as isize - HALO as isize, self.h));
-        let dst = p.mosaic.row_mut(r);
+        let dst = ring.row_mut(r);
         let (even, odd) = dst.split_at_mut(self.half);
         let pairs = src.chunks_exact(2);
         if let [last] = pairs.remainder() {
-            even[HALO / 2 + self.w / 2] = last.to_unit();
+            even[HALO / 2 + self.w / 2] = convert(*last);
         }
         let halves = even[HALO / 2..].iter_mut().zip(&mut odd[HALO / 2..]);
         for ((e, o), pair) in halves.zip(pairs) {
-            *e = pair[0].to_unit();
-            *o = pair[1].to_unit();
+            *e = convert(pair[0]);
+            *o = convert(pair[1]);
         }
         for x in (0..HALO).chain(HALO + self.w..self.pw) {
-            let v = src[reflect(x as isize - HALO as isize, self.w)].to_unit();
+            let v = convert(src[reflect(x as isize - HALO as isize, self.w)]);
             let half = if x % 2 == 0 { &mut *even } else { &mut *odd };
             half[x / 2] = v;
         }
     }
 
+    /// Writes the frame's part of the split rows `rgb` into `out`, interleaved, two pixels
+    /// (an even and an odd column) at a time, converting each value with `convert`.
     #[inline(always)]
-    fn diff_row(&self, r: usize, p: &mut Planes<'_>) {
+    fn write_row<T: Sample, E: Copy, F: Fn(E) -> T>(
+        &self,
+        rgb: [&[E]; 3],
+        out: &mut [T],
+        convert: F,
+    ) {
+        let start = HALO / 2;
+        let at =
+            |plane: &[E], parity: usize, k: usize| convert(plane[parity * self.half + start + k]);
+        let mut pairs = out.chunks_exact_mut(6);
+        for (k, o) in (&mut pairs).enumerate() {
+            for c in 0..3 {
+                o[c] = at(rgb[c], 0, k);
+                o[3 + c] = at(rgb[c], 1, k);
+            }
+        }
+        if let [r_last, g_last, b_last] = pairs.into_remainder() {
+            let k = self.w / 2;
+            *r_last = at(rgb[0], 0, k);
+            *g_last = at(rgb[1], 0, k);
+            *b_last = at(rgb[2], 0, k);
+        }
+    }
+
+    #[inline(always)]
+    fn diff_row(&self, r: usize, p: &mut Planes<'_, f32>) {
         let m: [&[f32]; 5] = p.mosaic.rows(r);
         let gp = self.green_parity(r);
         for parity in 0..2 {
@@ -476,7 +577,7 @@ impl Frame {
     }
 
     #[inline(always)]
-    fn grad_row(&self, r: usize, p: &mut Planes<'_>) {
+    fn grad_row(&self, r: usize, p: &mut Planes<'_, f32>) {
         let dh = p.diff_h.row(r);
         let [up, _, down]: [&[f32]; 3] = p.diff_v.rows(r);
         for parity in 0..2 {
@@ -495,7 +596,7 @@ impl Frame {
     }
 
     #[inline(always)]
-    fn sum3_row(&self, r: usize, p: &mut Planes<'_>) {
+    fn sum3_row(&self, r: usize, p: &mut Planes<'_, f32>) {
         let gv = p.grad_v.row(r);
         let gh: [&[f32]; 3] = p.grad_h.rows(r);
         for parity in 0..2 {
@@ -514,7 +615,7 @@ impl Frame {
     }
 
     #[inline(always)]
-    fn class_row(&self, r: usize, p: &mut Planes<'_>) {
+    fn class_row(&self, r: usize, p: &mut Planes<'_, f32>) {
         let m: [&[f32]; 7] = p.mosaic.rows(r);
         let gp = self.green_parity(r);
         // Horizontal/vertical at green pixels.
@@ -540,7 +641,7 @@ impl Frame {
     }
 
     #[inline(always)]
-    fn green_row(&self, r: usize, p: &mut Planes<'_>) {
+    fn green_row(&self, r: usize, p: &mut Planes<'_, f32>) {
         let m: [&[f32]; 7] = p.mosaic.rows(r);
         let gp = self.green_parity(r);
         // Green pixels keep their sample.
@@ -608,7 +709,7 @@ impl Frame {
     }
 
     #[inline(always)]
-    fn chroma_row(&self, r: usize, p: &mut Planes<'_>) {
+    fn chroma_row(&self, r: usize, p: &mut Planes<'_, f32>) {
         let span = Span::new(self, 1 - self.green_parity(r), 8);
         let m: [&[f32]; 7] = p.mosaic.rows(r);
         let g: [&[f32]; 5] = p.green.rows(r);
@@ -620,12 +721,7 @@ impl Frame {
         let x_q: [&[f32]; 4] = core::array::from_fn(|k| span.tap(m[2 * k], 3 - 2 * k as isize));
         let g_q: [&[f32]; 5] = core::array::from_fn(|k| span.tap(g[k], 2 - k as isize));
         let own = span.tap(class[1], 0);
-        let diagonal = [
-            span.tap(class[0], -1),
-            span.tap(class[0], 1),
-            span.tap(class[2], -1),
-            span.tap(class[2], 1),
-        ];
+        let diagonal = span.diagonals(class);
         let out = span.out(p.opposite.row_mut(r));
         for i in 0..out.len() {
             let est_p = pair_estimate(at(&x_p, i), at(&g_p, i));
@@ -636,7 +732,7 @@ impl Frame {
     }
 
     #[inline(always)]
-    fn output_row<T: Sample>(&self, r: usize, p: &mut Planes<'_>, out: &mut [T]) {
+    fn output_row<T: Sample>(&self, r: usize, p: &mut Planes<'_, f32>, out: &mut [T]) {
         let gp = self.green_parity(r);
         let m: [&[f32]; 7] = p.mosaic.rows(r);
         let opposite: [&[f32]; 7] = p.opposite.rows(r);
@@ -658,12 +754,7 @@ impl Frame {
         let g_v = span.column(g);
         let g_h: [&[f32]; 5] = span.taps(g[2]);
         let own = span.tap(class[1], 0);
-        let diagonal = [
-            span.tap(class[0], -1),
-            span.tap(class[0], 1),
-            span.tap(class[2], -1),
-            span.tap(class[2], 1),
-        ];
+        let diagonal = span.diagonals(class);
         let (red_g, blue_g) = (span.out(red), span.out(blue));
         for i in 0..red_g.len() {
             let c = refined(own[i], at(&diagonal, i));
@@ -687,7 +778,8 @@ impl Frame {
         span.out(own_out).copy_from_slice(own);
         span.out(other_out).copy_from_slice(other);
         span.out(green).copy_from_slice(span.tap(g[2], 0));
-        // Interleave, two pixels (an even and an odd column) at a time.
+        // The same loop as `write_row`, written out: called through `write_row` this loop
+        // measured 10 % slower overall (140 -> 130 Mpix/s), for no reason visible in the source.
         let start = HALO / 2;
         let at = |plane: &[f32], parity: usize, k: usize| {
             T::from_unit(plane[parity * self.half + start + k])
