@@ -277,7 +277,7 @@ fn bench_demosaic(args: &BenchDemosaicArgs) -> Result<String, String> {
         return Ok(serde_json::to_string_pretty(&list).map_err(|e| e.to_string())? + "\n");
     }
     let mut out = format!(
-        "{}\n{:<16} {:>4} {:>10} {:>10}\n",
+        "{}\n{:<18} {:>4} {:>10} {:>10}\n",
         args.dataset.display(),
         "method",
         "bits",
@@ -286,7 +286,7 @@ fn bench_demosaic(args: &BenchDemosaicArgs) -> Result<String, String> {
     );
     for r in rows {
         out.push_str(&format!(
-            "{:<16} {:>4} {:>10.2} {:>10.1}\n",
+            "{:<18} {:>4} {:>10.2} {:>10.1}\n",
             r.method, r.bits, r.cpsnr_db, r.mpix_per_s
         ));
     }

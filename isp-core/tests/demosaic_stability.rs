@@ -233,10 +233,10 @@ proptest! {
 }
 
 /// The integer directional method tracks the float one: on the zone plate and a constant-hue
-/// ramp at 16 bits, every sample within 16 LSB, at least 99.9 % within 8 LSB and the mean
-/// difference under 1 LSB (measured: 100 %, 99.96 %, 0.59 on the zone plate); at 8 bits every
-/// sample within 1 LSB. (On natural images a classifier sitting exactly between its two choices
-/// can tip either way, so single samples may differ more; see `directional_fixed`'s docs.)
+/// ramp at 16 bits, every sample within 3 LSB and the mean difference under 0.5 LSB (measured:
+/// at most 2, mean 0.23 on the zone plate); at 8 bits every sample within 1 LSB. (On natural
+/// images a classifier sitting exactly between its two choices, as in clipped highlights, can
+/// tip either way, so single samples may differ more; see `directional_fixed`'s docs.)
 #[test]
 fn directional_fixed_tracks_the_float_method() {
     let n = 96;
@@ -256,12 +256,11 @@ fn directional_fixed_tracks_the_float_method() {
                 .zip(&fixed)
                 .map(|(a, b)| a.abs_diff(*b))
                 .collect();
-            let within_8 = diffs.iter().filter(|d| **d <= 8).count() as f64 / diffs.len() as f64;
             let mean = diffs.iter().map(|d| *d as f64).sum::<f64>() / diffs.len() as f64;
             let worst = diffs.iter().max().copied();
             assert!(
-                worst <= Some(16) && within_8 >= 0.999 && mean < 1.0,
-                "{p:?}: worst {worst:?}, {within_8} within 8 LSB, mean {mean}"
+                worst <= Some(3) && mean < 0.5,
+                "{p:?}: worst {worst:?}, mean {mean}"
             );
             let m8: Vec<u8> = m.iter().map(|v| (v >> 8) as u8).collect();
             let float = demosaic(Method::Directional, &m8, n, n, p);

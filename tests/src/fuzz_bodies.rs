@@ -191,6 +191,58 @@ pub fn isp_pipeline(data: &[u8]) {
     }
 }
 
+/// The directional demosaic, float and integer, on an arbitrary mosaic (size 1..40 x 1..40,
+/// any pattern, 8 or 16 bits, samples from the bytes): each runs with `scratch_len` samples
+/// and refuses one fewer, without panicking; a constant mosaic comes out exactly flat.
+pub fn demosaic_directional(data: &[u8]) {
+    use isp_core::demosaic::directional::{directional, directional_fixed, scratch_len};
+    use isp_core::frame::{IntSample, MosaicView, RgbViewMut};
+    use isp_core::CfaPattern;
+
+    fn run<T: IntSample>(samples: &[T], w: usize, h: usize, pattern: CfaPattern) {
+        let mosaic = MosaicView::new(samples, w, h, w, pattern).expect("a valid mosaic");
+        let len = scratch_len(w).expect("a small frame's scratch");
+        let flat = samples.iter().all(|v| *v == samples[0]);
+        let mut float_rgb = vec![T::default(); 3 * w * h];
+        let mut out = RgbViewMut::new(&mut float_rgb, w, h, 3 * w).expect("a valid view");
+        let needs_scratch = w >= 2 && h >= 2;
+        if needs_scratch {
+            assert!(directional(&mosaic, &mut out, &mut vec![0.0; len - 1]).is_err());
+        }
+        directional(&mosaic, &mut out, &mut vec![0.0; len]).expect("runs with scratch_len");
+        let mut fixed_rgb = vec![T::default(); 3 * w * h];
+        let mut out = RgbViewMut::new(&mut fixed_rgb, w, h, 3 * w).expect("a valid view");
+        if needs_scratch {
+            assert!(directional_fixed(&mosaic, &mut out, &mut vec![0; len - 1]).is_err());
+        }
+        directional_fixed(&mosaic, &mut out, &mut vec![0; len]).expect("runs with scratch_len");
+        if flat {
+            assert!(float_rgb.iter().chain(&fixed_rgb).all(|v| *v == samples[0]));
+        }
+    }
+
+    let [a, b, c, rest @ ..] = data else {
+        return;
+    };
+    let (w, h) = (1 + *a as usize % 40, 1 + *b as usize % 40);
+    let pattern = CfaPattern::ALL[*c as usize % 4];
+    if rest.is_empty() {
+        return;
+    }
+    if c & 4 == 0 {
+        let samples: Vec<u8> = rest.iter().cycle().take(w * h).copied().collect();
+        run(&samples, w, h, pattern);
+    } else {
+        let samples: Vec<u16> = rest
+            .chunks(2)
+            .map(|p| u16::from_le_bytes([p[0], *p.get(1).unwrap_or(&0)]))
+            .cycle()
+            .take(w * h)
+            .collect();
+        run(&samples, w, h, pattern);
+    }
+}
+
 /// Scene files: any text is a scene or an error naming the file and line (never a panic), and
 /// a scene that loads renders a tiny image of finite, non-negative radiance. Texts that name
 /// files (`obj`, `png`) are left out: reading arbitrary paths is not what this checks.

@@ -126,6 +126,9 @@ proptest! {
 
     #[test]
     fn isp(data in proptest::collection::vec(any::<u8>(), 12..400)) { isp_pipeline(&data); }
+
+    #[test]
+    fn directional(data in proptest::collection::vec(any::<u8>(), 3..600)) { demosaic_directional(&data); }
 }
 
 /// Realistic values, which random bytes rarely produce: the bodies must accept them.
@@ -141,6 +144,11 @@ fn bodies_accept_realistic_values() {
     ]));
     isp.extend((0..200u32).map(|i| (i * 37 % 256) as u8));
     isp_pipeline(&isp);
+    // A 33x21 16-bit GRBG mosaic, and a flat 8-bit one.
+    let mut mosaic = vec![32, 20, 6];
+    mosaic.extend((0..1400u32).map(|i| (i * 97 % 251) as u8));
+    demosaic_directional(&mosaic);
+    demosaic_directional(&[9, 9, 1, 77]);
     let mut mask = vec![8, 8, 100, 200, 255];
     mask.extend([255u8; 64]);
     bitmap_aperture(&mask);
@@ -164,6 +172,7 @@ fn fuzz_regressions_stay_fixed() {
             "bitmap_aperture" => bitmap_aperture,
             "distortion_inverse" => distortion_inverse,
             "isp_pipeline" => isp_pipeline,
+            "demosaic_directional" => demosaic_directional,
             other => panic!("{name}: no fuzz target named {other}"),
         };
         body(&data);

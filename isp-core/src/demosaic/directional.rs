@@ -1,8 +1,10 @@
 //! The high-quality method: directional colour-difference demosaicing with ratio-free
 //! refinement, designed for a fixed window and a band of line buffers.
 //!
-//! Computed in `f32` on samples scaled to `[0, 1]` (any FPU-equipped core; integer samples are
-//! converted on the way in and rounded half up on the way out), in seven stages over a band of
+//! [`directional`] computes in `f32` on samples scaled to `[0, 1]` (any FPU-equipped core;
+//! integer samples are converted on the way in and rounded half up on the way out);
+//! [`directional_fixed`] is the same method in integer arithmetic for cores without one (`u8`
+//! and `u16` samples, `i32` scratch; same CPSNR on the standard sets). Seven stages over a band of
 //! rows with a 12-row halo above and below (and 12 columns left and right), reflected at the
 //! frame edges like every other method (reflect-101, which keeps the CFA parity):
 //!

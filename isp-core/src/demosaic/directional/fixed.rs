@@ -2,24 +2,36 @@
 //!
 //! The same stages, schedule and buffers as the `f32` method, on `i32` samples scaled to 16
 //! bits (8-bit input is multiplied by 257). Sums of samples are exact; ratios (the classifiers,
-//! the blend weights) are Q12 fractions; weighted means divide in `i64` and round half up.
-//! Where the float method adds a small epsilon to keep a division finite, this one adds 1 (one
-//! 16-bit LSB, or the smallest step of the quantity). Each product's bound is stated where it
+//! the blend weights) are Q16 fractions; weighted means divide in `i64` and round half up.
+//! The float method's small constants are carried over at their size on this scale, not
+//! replaced by a 1 that would be large next to them: its gradient floor (1e-5 of full scale,
+//! 0.66 LSB) by scaling those gradients by 100 and adding 66, its classifier floor (1e-10) by
+//! an offset of 1.75 units of the integer statistic, and its 1e-20 against division by zero
+//! (negligible on this scale) by handling zero exactly. Each product's bound is stated where it
 //! is formed; none exceeds `i64`.
 
 use super::{at, prepare, schedule_len, Due, Frame, Planes, Span, HALO, SMOOTH_PERCENT};
 use crate::frame::{IntSample, MosaicView, RgbViewMut};
 use crate::IspError;
 
-/// One in Q12.
-const ONE: i64 = 1 << 12;
+/// Fraction bits of the ratios.
+const Q: u32 = 16;
+/// One in Q16.
+const ONE: i64 = 1 << Q;
+/// The float method's gradient floor, 1e-5 of full scale, in hundredths of a 16-bit LSB: the
+/// gradients that carry it are kept in hundredths.
+const EPS_HUNDREDTHS: i32 = 66;
 /// Full scale of the working samples.
 const FULL: i32 = 65535;
 
 /// Demosaics `input` into `output` (same size) with the directional method in integer
 /// arithmetic, using `scratch` (at least [`scratch_len`](super::scratch_len)`(width)` samples).
-/// Its output is within a few LSB of [`directional`](super::directional)'s (the rounding of
-/// the ratios differs) and its CPSNR on the standard sets within 0.02 dB.
+/// Its CPSNR on the standard sets equals [`directional`](super::directional)'s to two
+/// decimals (Kodak 39.73, McMaster 36.11 dB at 16 bits). On smooth content every sample is
+/// within 2 LSB (16-bit) of it, and 99.8 % of the Kodak samples are within 1 LSB; where a
+/// classifier sits exactly between its choices, as in highlights clipped in two channels, the
+/// two can tip differently and differ by a few hundred LSB in the third (kodim20's clipped sky:
+/// 40.74 dB PSNR for both, neither closer to the truth).
 ///
 /// ```
 /// use isp_core::demosaic::directional::{directional_fixed, scratch_len};
@@ -95,10 +107,23 @@ fn clamp_full(v: i64) -> i32 {
     v.clamp(0, FULL as i64) as i32
 }
 
-/// `a / (a + b)` in Q12 for `a, b >= 0` (< 2^50), 0.5 when both are 0.
+/// `a / (a + b)` in Q16, rounded, for `0 <= a, b < 2^46`; one half when both are 0.
 #[inline(always)]
-fn ratio_q12(a: i64, b: i64) -> i64 {
-    ((a + 1) << 12) / (a + b + 2)
+fn ratio(a: i64, b: i64) -> i64 {
+    let sum = a + b;
+    if sum == 0 {
+        ONE / 2
+    } else {
+        ((a << Q) + sum / 2) / sum
+    }
+}
+
+/// The float method's classifier `v / (v + h)` from two line statistics ([`line_stat`], each
+/// < 2^37): its floor of 1e-10 (in squared full scale) is 1.72 units of these statistics, so
+/// `(4 v + 7) / (4 v + 4 h + 14)`.
+#[inline(always)]
+fn line_ratio(v: i64, h: i64) -> i64 {
+    ratio(4 * v + 7, 4 * h + 7)
 }
 
 /// `4 x` the float method's line statistic (sum of squared first differences and a quarter
@@ -116,11 +141,12 @@ fn line_stat(v: [i32; 7]) -> i64 {
 }
 
 /// The float method's `pair_estimate`: `x` the chroma at offsets -3, -1, 1, 3, `g` the green
-/// at -2..=2. The weights are < 2^18 and the differences < 2^17.
+/// at -2..=2. The weights (hundredths of an LSB) are < 2^25 and the differences < 2^17.
 #[inline(always)]
 fn pair_estimate(x: [i32; 4], g: [i32; 5]) -> i64 {
-    let before = 1 + (x[1] - x[2]).abs() + (x[1] - x[0]).abs() + (g[2] - g[0]).abs();
-    let after = 1 + (x[2] - x[1]).abs() + (x[2] - x[3]).abs() + (g[2] - g[4]).abs();
+    let hundredths = |s: i32| 100 * s + EPS_HUNDREDTHS;
+    let before = hundredths((x[1] - x[2]).abs() + (x[1] - x[0]).abs() + (g[2] - g[0]).abs());
+    let after = hundredths((x[2] - x[1]).abs() + (x[2] - x[3]).abs() + (g[2] - g[4]).abs());
     let (before, after) = (before as i64, after as i64);
     div_round(
         after * (x[1] - g[1]) as i64 + before * (x[2] - g[3]) as i64,
@@ -128,10 +154,10 @@ fn pair_estimate(x: [i32; 4], g: [i32; 5]) -> i64 {
     )
 }
 
-/// `base + (1 - c) a + c b` for a Q12 classifier `c`, clamped to the working range.
+/// `base + (1 - c) a + c b` for a Q16 classifier `c`, clamped to the working range.
 #[inline(always)]
 fn steered(base: i32, c: i64, a: i64, b: i64) -> i32 {
-    clamp_full(base as i64 + (((ONE - c) * a + c * b + ONE / 2) >> 12))
+    clamp_full(base as i64 + (((ONE - c) * a + c * b + ONE / 2) >> Q))
 }
 
 impl Frame {
@@ -193,7 +219,7 @@ impl Frame {
         }
     }
 
-    /// The classifiers in Q12.
+    /// The classifiers in Q16.
     fn class_row_fixed(&self, r: usize, p: &mut Planes<'_, i32>) {
         let m: [&[i32]; 7] = p.mosaic.rows(r);
         let gp = self.green_parity(r);
@@ -202,14 +228,14 @@ impl Frame {
         let row: [&[i32]; 7] = span.taps(m[3]);
         let hv = span.out(p.class.row_mut(r));
         for (i, class) in hv.iter_mut().enumerate() {
-            *class = ratio_q12(line_stat(at(&v, i)), line_stat(at(&row, i))) as i32;
+            *class = line_ratio(line_stat(at(&v, i)), line_stat(at(&row, i))) as i32;
         }
         let span = Span::new(self, 1 - gp, 3);
         let ne: [&[i32]; 7] = core::array::from_fn(|k| span.tap(m[k], k as isize - 3));
         let nw: [&[i32]; 7] = core::array::from_fn(|k| span.tap(m[k], 3 - k as isize));
         let pq = span.out(p.class.row_mut(r));
         for (i, class) in pq.iter_mut().enumerate() {
-            *class = ratio_q12(line_stat(at(&ne, i)), line_stat(at(&nw, i))) as i32;
+            *class = line_ratio(line_stat(at(&ne, i)), line_stat(at(&nw, i))) as i32;
         }
     }
 
@@ -233,13 +259,24 @@ impl Frame {
             // One-sided sums < 2^23, boxes < 2^24.
             let (sn, ss, sw, se) = (v2 + v1 + v0, v2 + v3 + v4, h2 + h1 + h0, h2 + h3 + h4);
             let (box_v, box_h) = (sn + ss - v2, sw + se - h2);
-            let class = ratio_q12(box_v * box_v, box_h * box_h);
-            // Inverse-square weights relative to the smallest sum: in (0, 2^16], and
-            // (min + 1)^2 << 16 < 2^62.
-            let sides = [sn + 1, ss + 1, sw + 1, se + 1];
-            let least = sides[0].min(sides[1]).min(sides[2].min(sides[3]));
-            let top = (least * least) << 16;
-            let weights = sides.map(|s| top / (s * s));
+            let class = ratio(box_v * box_v, box_h * box_h);
+            // Inverse-square weights relative to the smallest sum, in Q16: (least / s)^2. A
+            // side with no gradient at all outweighs every other completely, as 1 / 1e-20
+            // does in the float method. least << 16 < 2^40.
+            let sides = [sn, ss, sw, se];
+            let least = sn.min(ss).min(sw.min(se));
+            let weights = sides.map(|s| {
+                if least == 0 {
+                    if s == 0 {
+                        ONE
+                    } else {
+                        0
+                    }
+                } else {
+                    let q = (least << Q) / s;
+                    (q * q) >> Q
+                }
+            });
             // Smoothed differences, 100 x 4 x the float method's (< 2^25).
             let mut smooth = [0i64; 4];
             for (k, f) in SMOOTH_PERCENT.iter().enumerate() {
@@ -257,20 +294,22 @@ impl Frame {
             let g_diff = c[3][i] as i64 + div_round(num, 400 * den);
             let [c0, c1, c2, c3, c4, c5, c6] = at(&c, i);
             let [n0, n1, n2, _, n4, n5, n6] = at(&col, i);
-            let gn = 1 + (n4 - n2).abs() + (c3 - n1).abs() + (n2 - n0).abs();
-            let gs = 1 + (n2 - n4).abs() + (c3 - n5).abs() + (n4 - n6).abs();
-            let gw = 1 + (c4 - c2).abs() + (c3 - c1).abs() + (c2 - c0).abs();
-            let ge = 1 + (c2 - c4).abs() + (c3 - c5).abs() + (c4 - c6).abs();
+            // Gradients in hundredths of an LSB (< 2^25).
+            let hundredths = |s: i32| 100 * s + EPS_HUNDREDTHS;
+            let gn = hundredths((n4 - n2).abs() + (c3 - n1).abs() + (n2 - n0).abs());
+            let gs = hundredths((n2 - n4).abs() + (c3 - n5).abs() + (n4 - n6).abs());
+            let gw = hundredths((c4 - c2).abs() + (c3 - c1).abs() + (c2 - c0).abs());
+            let ge = hundredths((c2 - c4).abs() + (c3 - c5).abs() + (c4 - c6).abs());
             let (gn, gs, gw, ge) = (gn as i64, gs as i64, gw as i64, ge as i64);
             let vertical = div_round(gs * n2 as i64 + gn * n4 as i64, gn + gs);
             let horizontal = div_round(ge * c2 as i64 + gw * c4 as i64, gw + ge);
-            let g_plain = (class * horizontal + (ONE - class) * vertical + ONE / 2) >> 12;
-            // The float method's 0.6 + 0.35 r / (r + 2 d): with its scales, r / (r + 2 d) is
-            // 6 raw / (6 raw + diff) here.
-            let diff_least = sn.min(ss).min(sw.min(se));
-            let raw_least = 6 * gn.min(gs).min(gw.min(ge));
-            let a = 2458 + 1434 * raw_least / (raw_least + diff_least);
-            out[i] = clamp_full((a * g_diff + (ONE - a) * g_plain + ONE / 2) >> 12);
+            let g_plain = (class * horizontal + (ONE - class) * vertical + ONE / 2) >> Q;
+            // The float method's 0.6 + 0.35 r / (r + 2 d), with r the least raw gradient over
+            // 3 and d the least difference gradient over 9: on these scales (hundredths, and
+            // 4 x), r / (r + 2 d) is 3 raw / (3 raw + 50 diff).
+            let raw = 3 * gn.min(gs).min(gw.min(ge));
+            let a = 39322 + 22938 * raw / (raw + 50 * least);
+            out[i] = clamp_full((a * g_diff + (ONE - a) * g_plain + ONE / 2) >> Q);
         }
     }
 
@@ -289,7 +328,7 @@ impl Frame {
         for i in 0..out.len() {
             let est_p = pair_estimate(at(&x_p, i), at(&g_p, i));
             let est_q = pair_estimate(at(&x_q, i), at(&g_q, i));
-            let c = refined_q12(own[i], at(&diagonal, i));
+            let c = refined(own[i], at(&diagonal, i));
             out[i] = steered(g_p[2][i], c, est_p, est_q);
         }
     }
@@ -315,7 +354,7 @@ impl Frame {
         let diagonal = span.diagonals(class);
         let (red_g, blue_g) = (span.out(red), span.out(blue));
         for i in 0..red_g.len() {
-            let c = refined_q12(own[i], at(&diagonal, i));
+            let c = refined(own[i], at(&diagonal, i));
             let (gv, gh) = (at(&g_v, i), at(&g_h, i));
             let vertical = pair_estimate(at(&red_v, i), gv);
             let horizontal = pair_estimate(at(&red_h, i), gh);
@@ -339,12 +378,12 @@ impl Frame {
     }
 }
 
-/// The float method's `refined` for Q12 classifiers: `own` if it is further from one half
+/// The float method's `refined` for Q16 classifiers: `own` if it is further from one half
 /// than the mean of its four diagonal neighbours, else that mean.
 #[inline(always)]
-fn refined_q12(own: i32, diagonal: [i32; 4]) -> i64 {
+fn refined(own: i32, diagonal: [i32; 4]) -> i64 {
     let around = (diagonal[0] + diagonal[1] + diagonal[2] + diagonal[3] + 2) >> 2;
-    let half = 1 << 11;
+    let half = 1 << (Q - 1);
     i64::from(if (half - own).abs() < (half - around).abs() {
         around
     } else {
