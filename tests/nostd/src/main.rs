@@ -76,6 +76,36 @@ fn checks() -> bool {
         && CfaPattern::Rggb.colour_at(1, 1) == CfaColour::Blue
         && srgb::encode(1.0) > 0.999
         && pipeline_runs()
+        && directional_runs()
+}
+
+/// The directional demosaic, float and integer, on a flat 8x8 mosaic in stack buffers: the
+/// field stays flat.
+fn directional_runs() -> bool {
+    use isp_core::demosaic::directional::{directional, directional_fixed, scratch_len};
+    use isp_core::frame::{MosaicView, RgbViewMut};
+    const SCRATCH: usize = match scratch_len(8) {
+        Some(n) => n,
+        None => 0,
+    };
+    let data = [1000u16; 64];
+    let Ok(mosaic) = MosaicView::new(&data, 8, 8, 8, CfaPattern::Gbrg) else {
+        return false;
+    };
+    let mut rgb = [0u16; 192];
+    let Ok(mut out) = RgbViewMut::new(&mut rgb, 8, 8, 24) else {
+        return false;
+    };
+    let mut scratch = [0f32; SCRATCH];
+    if directional(&mosaic, &mut out, &mut scratch).is_err() || rgb.iter().any(|v| *v != 1000) {
+        return false;
+    }
+    let mut rgb = [0u16; 192];
+    let Ok(mut out) = RgbViewMut::new(&mut rgb, 8, 8, 24) else {
+        return false;
+    };
+    let mut scratch = [0i32; SCRATCH];
+    directional_fixed(&mosaic, &mut out, &mut scratch).is_ok() && rgb.iter().all(|v| *v == 1000)
 }
 
 /// The whole fixed-point ISP on a flat 8x4 frame in stack buffers, without and with distortion
