@@ -64,11 +64,12 @@ pub fn directional_fixed<T: IntSample>(
             frame.diff_row_fixed(r, &mut p);
         }
         if let Some(r) = due.grad_class {
-            frame.grad_row_fixed(r, &mut p);
+            // Gradients < 2^19, their three-sample sums < 2^21.
+            frame.grad_row(r, &mut p);
             frame.class_row_fixed(r, &mut p);
         }
         if let Some(r) = due.sum3 {
-            frame.sum3_row_fixed(r, &mut p);
+            frame.sum3_row(r, &mut p);
         }
         if let Some(r) = due.green {
             frame.green_row_fixed(r, &mut p);
@@ -181,78 +182,27 @@ impl Frame {
         }
     }
 
-    /// Gradients (< 2^19) of the differences along their direction.
-    fn grad_row_fixed(&self, r: usize, p: &mut Planes<'_, i32>) {
-        let dh = p.diff_h.row(r);
-        let [up, _, down]: [&[i32]; 3] = p.diff_v.rows(r);
-        for parity in 0..2 {
-            let span = Span::new(self, parity, 3);
-            let [left, _, right]: [&[i32]; 3] = span.taps(dh);
-            let gh = span.out(p.grad_h.row_mut(r));
-            for i in 0..gh.len() {
-                gh[i] = (left[i] - right[i]).abs();
-            }
-            let [up, down] = span.column([up, down]);
-            let gv = span.out(p.grad_v.row_mut(r));
-            for i in 0..gv.len() {
-                gv[i] = (up[i] - down[i]).abs();
-            }
-        }
-    }
-
-    /// Three-sample sums (< 2^21) of the gradients across their direction.
-    fn sum3_row_fixed(&self, r: usize, p: &mut Planes<'_, i32>) {
-        let gv = p.grad_v.row(r);
-        let gh: [&[i32]; 3] = p.grad_h.rows(r);
-        for parity in 0..2 {
-            let span = Span::new(self, parity, 4);
-            let v: [&[i32]; 3] = span.taps(gv);
-            let s3v = span.out(p.sum3_v.row_mut(r));
-            for i in 0..s3v.len() {
-                s3v[i] = v[0][i] + v[1][i] + v[2][i];
-            }
-            let h = span.column(gh);
-            let s3h = span.out(p.sum3_h.row_mut(r));
-            for i in 0..s3h.len() {
-                s3h[i] = h[0][i] + h[1][i] + h[2][i];
-            }
-        }
-    }
-
     /// The classifiers in Q16.
     fn class_row_fixed(&self, r: usize, p: &mut Planes<'_, i32>) {
-        let m: [&[i32]; 7] = p.mosaic.rows(r);
-        let gp = self.green_parity(r);
-        let span = Span::new(self, gp, 3);
-        let v = span.column(m);
-        let row: [&[i32]; 7] = span.taps(m[3]);
-        let hv = span.out(p.class.row_mut(r));
+        let t = self.class_taps(r, &p.mosaic);
+        let hv = t.green.out(p.class.row_mut(r));
         for (i, class) in hv.iter_mut().enumerate() {
-            *class = line_ratio(line_stat(at(&v, i)), line_stat(at(&row, i))) as i32;
+            *class = line_ratio(
+                line_stat(at(&t.vertical, i)),
+                line_stat(at(&t.horizontal, i)),
+            ) as i32;
         }
-        let span = Span::new(self, 1 - gp, 3);
-        let ne: [&[i32]; 7] = core::array::from_fn(|k| span.tap(m[k], k as isize - 3));
-        let nw: [&[i32]; 7] = core::array::from_fn(|k| span.tap(m[k], 3 - k as isize));
-        let pq = span.out(p.class.row_mut(r));
+        let pq = t.other.out(p.class.row_mut(r));
         for (i, class) in pq.iter_mut().enumerate() {
-            *class = line_ratio(line_stat(at(&ne, i)), line_stat(at(&nw, i))) as i32;
+            *class = line_ratio(line_stat(at(&t.along_p, i)), line_stat(at(&t.along_q, i))) as i32;
         }
     }
 
     fn green_row_fixed(&self, r: usize, p: &mut Planes<'_, i32>) {
-        let m: [&[i32]; 7] = p.mosaic.rows(r);
-        let gp = self.green_parity(r);
-        let copy = Span::new(self, gp, 6);
-        copy.out(p.green.row_mut(r))
-            .copy_from_slice(copy.tap(m[3], 0));
-        let span = Span::new(self, 1 - gp, 6);
-        let col = span.column(m);
-        let c: [&[i32]; 7] = span.taps(m[3]);
-        let dv = span.column(p.diff_v.rows::<7>(r));
-        let dh: [&[i32]; 7] = span.taps(p.diff_h.row(r));
-        let s3v = span.column(p.sum3_v.rows::<5>(r));
-        let s3h: [&[i32]; 5] = span.taps(p.sum3_h.row(r));
-        let out = span.out(p.green.row_mut(r));
+        self.keep_green(r, &p.mosaic, &mut p.green);
+        let t = self.green_taps(r, &p.mosaic, [&p.diff_v, &p.diff_h], [&p.sum3_v, &p.sum3_h]);
+        let out = t.span.out(p.green.row_mut(r));
+        let (col, c, dv, dh, s3v, s3h) = (t.column, t.row, t.diff_v, t.diff_h, t.sum3_v, t.sum3_h);
         for i in 0..out.len() {
             let [v0, v1, v2, v3, v4] = at(&s3v, i).map(i64::from);
             let [h0, h1, h2, h3, h4] = at(&s3h, i).map(i64::from);
@@ -314,66 +264,31 @@ impl Frame {
     }
 
     fn chroma_row_fixed(&self, r: usize, p: &mut Planes<'_, i32>) {
-        let span = Span::new(self, 1 - self.green_parity(r), 8);
-        let m: [&[i32]; 7] = p.mosaic.rows(r);
-        let g: [&[i32]; 5] = p.green.rows(r);
-        let class: [&[i32]; 3] = p.class.rows(r);
-        let x_p: [&[i32]; 4] = core::array::from_fn(|k| span.tap(m[2 * k], 2 * k as isize - 3));
-        let g_p: [&[i32]; 5] = core::array::from_fn(|k| span.tap(g[k], k as isize - 2));
-        let x_q: [&[i32]; 4] = core::array::from_fn(|k| span.tap(m[2 * k], 3 - 2 * k as isize));
-        let g_q: [&[i32]; 5] = core::array::from_fn(|k| span.tap(g[k], 2 - k as isize));
-        let own = span.tap(class[1], 0);
-        let diagonal = span.diagonals(class);
-        let out = span.out(p.opposite.row_mut(r));
-        for i in 0..out.len() {
-            let est_p = pair_estimate(at(&x_p, i), at(&g_p, i));
-            let est_q = pair_estimate(at(&x_q, i), at(&g_q, i));
-            let c = refined(own[i], at(&diagonal, i));
-            out[i] = steered(g_p[2][i], c, est_p, est_q);
+        let t = self.chroma_taps(r, &p.mosaic, &p.green, &p.class);
+        let out = t.span.out(p.opposite.row_mut(r));
+        for (i, opposite) in out.iter_mut().enumerate() {
+            let est_p = pair_estimate(at(&t.chroma_p, i), at(&t.green_p, i));
+            let est_q = pair_estimate(at(&t.chroma_q, i), at(&t.green_q, i));
+            let c = refined(t.class[i], at(&t.class_around, i));
+            *opposite = steered(t.green_p[2][i], c, est_p, est_q);
         }
     }
 
     fn output_row_fixed<T: IntSample>(&self, r: usize, p: &mut Planes<'_, i32>, out: &mut [T]) {
-        let gp = self.green_parity(r);
-        let m: [&[i32]; 7] = p.mosaic.rows(r);
-        let opposite: [&[i32]; 7] = p.opposite.rows(r);
-        let g: [&[i32]; 5] = p.green.rows(r);
-        let class: [&[i32]; 3] = p.class.rows(r);
+        self.fill_known(r, p);
+        let t = self.green_site_taps(r, &p.mosaic, &p.opposite, &p.green, &p.class);
         let [red, green, blue] = &mut p.out_rgb;
-        let span = Span::new(self, gp, HALO);
-        let (red_v, red_h, blue_v, blue_h) = if self.red_row(r) {
-            (opposite, m[3], m, opposite[3])
-        } else {
-            (m, opposite[3], opposite, m[3])
-        };
-        let (red_v, red_h) = (span.odd_rows(red_v), span.odd_taps(red_h));
-        let (blue_v, blue_h) = (span.odd_rows(blue_v), span.odd_taps(blue_h));
-        let g_v = span.column(g);
-        let g_h: [&[i32]; 5] = span.taps(g[2]);
-        let own = span.tap(class[1], 0);
-        let diagonal = span.diagonals(class);
-        let (red_g, blue_g) = (span.out(red), span.out(blue));
+        let (red_g, blue_g) = (t.span.out(red), t.span.out(blue));
         for i in 0..red_g.len() {
-            let c = refined(own[i], at(&diagonal, i));
-            let (gv, gh) = (at(&g_v, i), at(&g_h, i));
-            let vertical = pair_estimate(at(&red_v, i), gv);
-            let horizontal = pair_estimate(at(&red_h, i), gh);
+            let c = refined(t.class[i], at(&t.class_around, i));
+            let (gv, gh) = (at(&t.green_v, i), at(&t.green_h, i));
+            let vertical = pair_estimate(at(&t.red_v, i), gv);
+            let horizontal = pair_estimate(at(&t.red_h, i), gh);
             red_g[i] = steered(gv[2], c, vertical, horizontal);
-            let vertical = pair_estimate(at(&blue_v, i), gv);
-            let horizontal = pair_estimate(at(&blue_h, i), gh);
+            let vertical = pair_estimate(at(&t.blue_v, i), gv);
+            let horizontal = pair_estimate(at(&t.blue_h, i), gh);
             blue_g[i] = steered(gv[2], c, vertical, horizontal);
         }
-        span.out(green).copy_from_slice(span.tap(m[3], 0));
-        let span = Span::new(self, 1 - gp, HALO);
-        let (own, other) = (span.tap(m[3], 0), span.tap(opposite[3], 0));
-        let (own_out, other_out) = if self.red_row(r) {
-            (&mut *red, &mut *blue)
-        } else {
-            (&mut *blue, &mut *red)
-        };
-        span.out(own_out).copy_from_slice(own);
-        span.out(other_out).copy_from_slice(other);
-        span.out(green).copy_from_slice(span.tap(g[2], 0));
         self.write_row([red, green, blue], out, from_working::<T>);
     }
 }
