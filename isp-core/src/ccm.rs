@@ -161,6 +161,16 @@ pub fn fit(camera: &[[f64; 3]], reference: &[[f64; 3]]) -> Result<Mat3, IspError
     }))
 }
 
+/// The colour matrix [`Calibration::ccm_for_white_balance`] chose, with the temperature it
+/// chose it for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ChosenCcm {
+    /// The white balance's correlated colour temperature, kelvin.
+    pub cct_k: f64,
+    /// The pipeline CCM at that temperature for those gains.
+    pub ccm: [[f32; 3]; 3],
+}
+
 /// A camera's colour calibration under one or two illuminants.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Calibration {
@@ -256,6 +266,39 @@ impl Calibration {
         let ccm = m.map(|row| row.map(|c| (c / y) as f32));
         validate(&ccm)?;
         Ok(ccm)
+    }
+
+    /// The correlated colour temperature (kelvin) of a camera neutral: the illuminant's colour
+    /// in camera RGB, as AWB estimates it or as a DNG's AsShotNeutral states it. The
+    /// camera-to-XYZ matrix depends on the temperature, so this iterates three times from
+    /// 5000 K (McCamy's CCT of the neutral through the matrix at the last estimate).
+    pub fn cct_of_neutral(&self, neutral: [f32; 3]) -> Result<f64, IspError> {
+        let mut cct = 5000.0;
+        for _ in 0..3 {
+            let m = self.camera_to_xyz(cct)?;
+            cct = crate::wb::cct_of_neutral(neutral, &m)?;
+        }
+        Ok(cct)
+    }
+
+    /// The colour matrix that follows the white balance: white-balance `gains` -> their neutral
+    /// (`1 / gains`) -> its CCT ([`Self::cct_of_neutral`]) -> the calibration interpolated there
+    /// ([`Self::ccm`]). The one place that choice is made, as libcamera's CCM algorithm does
+    /// from its AWB result.
+    ///
+    /// ```
+    /// use isp_core::ccm::Calibration;
+    /// use isp_core::colour::LINEAR_SRGB_TO_XYZ;
+    /// let cal = Calibration::single(6504.0, LINEAR_SRGB_TO_XYZ).unwrap();
+    /// let chosen = cal.ccm_for_white_balance([1.0, 1.0, 1.0]).unwrap();
+    /// assert!((chosen.cct_k - 6504.0).abs() < 50.0); // a neutral camera's white is D65
+    /// ```
+    pub fn ccm_for_white_balance(&self, gains: [f32; 3]) -> Result<ChosenCcm, IspError> {
+        crate::wb::validate_gains(gains)?;
+        let neutral = gains.map(|g| 1.0 / g);
+        let cct_k = self.cct_of_neutral(neutral)?;
+        let ccm = self.ccm(cct_k, gains)?;
+        Ok(ChosenCcm { cct_k, ccm })
     }
 
     /// White-balance gains (green 1) that make `preset`'s illuminant neutral for this camera.

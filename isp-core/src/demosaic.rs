@@ -19,8 +19,9 @@
 //!
 //! **Directional** ([`directional::directional`]) is the high-quality method: directional
 //! colour differences with gradient weights, computed in `f32` over ring buffers of 16 rows in
-//! caller scratch (see its module). It needs an 11-pixel window, so it is a whole-frame function
-//! rather than a [`Method`] of the 5-row streaming [`row`].
+//! caller scratch (see its module). It needs an 11-pixel window, so it is a whole-frame function:
+//! [`Method::Directional`] names it, but the 5-row streaming [`row`] (and so the pipeline and
+//! [`demosaic`]) refuse it.
 //!
 //! Every method works on `u8` and `u16` (integer arithmetic) and on `f32` in `[0, 1]` (the
 //! same filters, exact division, clamped to `[0, 1]`): see [`Sample`].
@@ -55,7 +56,10 @@ pub enum Border {
     OpenCv,
 }
 
-/// A demosaicing method (reflect-101 borders), for [`demosaic`], [`row`] and the pipeline.
+/// A demosaicing method: the one list of isp-core's methods. The first three stream row by
+/// row ([`row`], [`demosaic`], the pipeline; reflect-101 borders); [`Method::Directional`] is
+/// the whole-frame [`directional::directional`] (and its integer twin
+/// [`directional::directional_fixed`]), which the streaming functions refuse.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Method {
     /// 2x2 superpixel replication, the cheapest preview.
@@ -65,11 +69,16 @@ pub enum Method {
     Bilinear,
     /// Malvar-He-Cutler 2004 gradient-corrected 5x5 filters.
     Mhc,
+    /// The high-quality directional method (whole-frame only, so far).
+    Directional,
 }
 
 impl Method {
     /// All methods, cheapest first.
-    pub const ALL: [Method; 3] = [Self::Nearest, Self::Bilinear, Self::Mhc];
+    pub const ALL: [Method; 4] = [Self::Nearest, Self::Bilinear, Self::Mhc, Self::Directional];
+
+    /// The methods [`row`] and the pipeline run.
+    pub const STREAMING: [Method; 3] = [Self::Nearest, Self::Bilinear, Self::Mhc];
 
     /// The method's name as the command line spells it.
     pub const fn name(self) -> &'static str {
@@ -77,7 +86,13 @@ impl Method {
             Self::Nearest => "nearest",
             Self::Bilinear => "bilinear",
             Self::Mhc => "mhc",
+            Self::Directional => "directional",
         }
+    }
+
+    /// Whether [`row`] (and so the pipeline) runs it.
+    pub const fn streams(self) -> bool {
+        !matches!(self, Self::Directional)
     }
 
     /// Rows above and below the output row the method reads.
@@ -85,6 +100,16 @@ impl Method {
         match self {
             Self::Nearest | Self::Bilinear => 1,
             Self::Mhc => 2,
+            Self::Directional => directional::HALO,
+        }
+    }
+
+    /// The error the streaming functions give for a method they do not run.
+    const fn not_streaming() -> IspError {
+        IspError::InvalidParameter {
+            name: "demosaic method",
+            allowed:
+                "nearest, bilinear or mhc when streaming (directional is whole-frame only so far)",
         }
     }
 }
@@ -92,14 +117,14 @@ impl Method {
 impl core::str::FromStr for Method {
     type Err = IspError;
 
-    /// Parses `nearest`, `bilinear` or `mhc` (any case).
+    /// Parses `nearest`, `bilinear`, `mhc` or `directional` (any case).
     fn from_str(s: &str) -> Result<Self, IspError> {
         Self::ALL
             .into_iter()
             .find(|m| m.name().eq_ignore_ascii_case(s))
             .ok_or(IspError::InvalidParameter {
                 name: "demosaic method",
-                allowed: "one of nearest, bilinear, mhc",
+                allowed: "one of nearest, bilinear, mhc, directional",
             })
     }
 }
@@ -119,12 +144,16 @@ fn same_size<T: Sample>(
     Ok((w, h))
 }
 
-/// Demosaics `input` into `output` (same size) with `method` and reflect-101 borders.
+/// Demosaics `input` into `output` (same size) with a streaming `method` and reflect-101
+/// borders.
 pub fn demosaic<T: Sample>(
     method: Method,
     input: &MosaicView<'_, T>,
     output: &mut RgbViewMut<'_, T>,
 ) -> Result<(), IspError> {
+    if !method.streams() {
+        return Err(Method::not_streaming());
+    }
     let (_, h) = same_size(input, output)?;
     for y in 0..h {
         let rows: [&[T]; 5] =
@@ -137,8 +166,8 @@ pub fn demosaic<T: Sample>(
 /// Demosaics row `y` of a frame `h` rows high into `out` (`3 * width` samples, RGB).
 ///
 /// `rows[i]` is source row `reflect(y + i - 2, h)` (all the same width, at least 1); bilinear
-/// and nearest read only `rows[1..4]`. Errors if the rows differ in width or `out` is not
-/// three times that width.
+/// and nearest read only `rows[1..4]`. Errors if the rows differ in width, `out` is not
+/// three times that width, or `method` does not stream.
 pub fn row<T: Sample>(
     method: Method,
     rows: [&[T]; 5],
@@ -147,6 +176,9 @@ pub fn row<T: Sample>(
     pattern: CfaPattern,
     out: &mut [T],
 ) -> Result<(), IspError> {
+    if !method.streams() {
+        return Err(Method::not_streaming());
+    }
     let w = rows[2].len();
     if w == 0 || rows.iter().any(|r| r.len() != w) || y >= h {
         return Err(IspError::InvalidParameter {
@@ -167,7 +199,8 @@ pub fn row<T: Sample>(
     match method {
         Method::Nearest => nearest_row(rows, y, h, pattern, out),
         Method::Mhc if w >= 3 && h >= 3 => mhc_row(rows, y, pattern, out),
-        Method::Bilinear | Method::Mhc => bilinear_row(
+        // Directional was refused above.
+        Method::Bilinear | Method::Mhc | Method::Directional => bilinear_row(
             [rows[1], rows[2], rows[3]],
             y,
             pattern,

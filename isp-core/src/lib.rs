@@ -34,6 +34,7 @@ pub mod dpc;
 pub mod frame;
 pub mod lsc;
 mod math;
+pub mod metrics;
 pub mod pipeline;
 pub mod srgb;
 pub mod tone;
@@ -77,3 +78,5 @@ impl fmt::Display for IspError {
         }
     }
 }
+
+impl core::error::Error for IspError {}

@@ -40,3 +40,13 @@ pub(crate) fn atan2(y: f64, x: f64) -> f64 {
 pub(crate) fn exp(x: f64) -> f64 {
     libm::exp(x)
 }
+
+#[inline]
+pub(crate) fn log10(x: f64) -> f64 {
+    libm::log10(x)
+}
+
+#[inline]
+pub(crate) fn acos(x: f64) -> f64 {
+    libm::acos(x)
+}

@@ -155,6 +155,12 @@ impl IspConfig<'_> {
     /// Checks every parameter.
     pub fn validate(&self) -> Result<(), IspError> {
         self.dpc.validate()?;
+        if !self.demosaic.streams() {
+            return Err(IspError::InvalidParameter {
+                name: "demosaic",
+                allowed: "nearest, bilinear or mhc in the pipeline (directional is whole-frame only so far)",
+            });
+        }
         if !(0.0..MAX_GAIN).contains(&self.gain) {
             return Err(IspError::InvalidParameter {
                 name: "gain",

@@ -60,5 +60,7 @@ impl fmt::Display for OpticsError {
     }
 }
 
+impl core::error::Error for OpticsError {}
+
 /// The result type of every fallible function in optics-core.
 pub type Result<T> = core::result::Result<T, OpticsError>;

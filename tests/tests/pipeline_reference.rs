@@ -308,7 +308,7 @@ fn flat_field_stays_flat_through_every_stage() {
     let mut s = base.clone();
     s.wb = [1.9, 1.0, 1.4];
     variants.push(("wb", s));
-    for method in Method::ALL {
+    for method in Method::STREAMING {
         let mut s = base.clone();
         s.method = method;
         s.wb = [1.9, 1.0, 1.4];
@@ -365,7 +365,7 @@ fn flat_field_stays_flat_through_every_stage() {
 #[test]
 fn saturated_patch_stays_neutral_after_white_balance() {
     for pattern in CfaPattern::ALL {
-        for method in Method::ALL {
+        for method in Method::STREAMING {
             let (w, h) = (24, 20);
             let mut data = vec![0u16; w * h];
             for y in 0..h {
