@@ -1,3 +1,4 @@
 #![no_main]
 
-libfuzzer_sys::fuzz_target!(|data: &[u8]| camsim_tests::fuzz_bodies::dng_decode(data));
+// Depends on raw-formats alone: no tracer, no command line.
+libfuzzer_sys::fuzz_target!(|data: &[u8]| raw_formats::fuzzing::dng_decode(data));

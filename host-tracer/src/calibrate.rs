@@ -17,10 +17,11 @@ use std::path::Path;
 
 use isp_core::ccm::fit;
 use isp_core::colour::{self, Mat3};
+use isp_core::metrics::mean_max;
+use raw_formats::calibration::{CalibrationEntry, CalibrationFile};
 
 use crate::sensor::{self, LensGeometry, Response, SensorConfig};
-use crate::spectra::{Table, COLORCHECKER};
-use crate::tracer::color::{xyz_weights, BANDS};
+use crate::spectra::{bands_xyz, illuminant_bands, xyz_weights, Table, BANDS, COLORCHECKER};
 use crate::tracer::render::{render, RenderSettings};
 use crate::tracer::scene_file;
 
@@ -44,12 +45,6 @@ pub struct Calibrated {
     pub patches: Vec<([f64; 3], [f64; 3])>,
     /// The illuminant's colour in camera RGB (green 1): the neutral a white balance aims for.
     pub neutral: [f64; 3],
-}
-
-/// Mean and maximum of a list.
-pub fn mean_max(v: &[f64]) -> (f64, f64) {
-    let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
-    (mean, v.iter().copied().fold(0.0, f64::max))
 }
 
 /// The chart scene as TOML: 6 x 4 patches, 0.1 apart with 0.07 faces, seen square-on by a
@@ -87,10 +82,7 @@ pub fn calibrate(camera: &str, illuminant: &str) -> Result<Calibrated, String> {
         "<ColorChecker chart>",
         Path::new("."),
     )?;
-    let settings = RenderSettings {
-        progress: false,
-        ..RenderSettings::for_scene(&scene)
-    };
+    let settings = RenderSettings::for_scene(&scene);
     let image = render(&scene, &settings)?;
     let (w, h) = (image.width as usize, image.height as usize);
     if image.bands.len() != w * h * BANDS {
@@ -100,11 +92,19 @@ pub fn calibrate(camera: &str, illuminant: &str) -> Result<Calibrated, String> {
         camera: camera.into(),
         ..SensorConfig::ideal()
     };
-    let lens = LensGeometry::of_camera(&scene.camera, image.width, image.height);
+    let cam = &scene.camera;
+    let sensor_mm = cam.sensor_mm(image.width, image.height);
+    let lens = LensGeometry::thin_lens(
+        cam.focal_length_mm as f64,
+        cam.aperture_radius_mm as f64,
+        [sensor_mm.x as f64, sensor_mm.y as f64],
+    );
     let camera_rgb = response.camera_rgb(&image.bands, &image.rgb);
     let capture = sensor::capture(&camera_rgb, w, h, lens, &config)?;
     let weights = xyz_weights();
-    let range = (capture.white_level - capture.black_level) as f64;
+    let raw = &capture.raw;
+    let black = raw.black_level[0];
+    let range = (raw.white_level - black) as f64;
 
     let mut patches = Vec::with_capacity(24);
     for i in 0..24 {
@@ -113,8 +113,8 @@ pub fn calibrate(camera: &str, illuminant: &str) -> Result<Calibrated, String> {
         let mut n = 0.0;
         for y in y0 + PATCH_PX / 4..y0 + 3 * PATCH_PX / 4 {
             for x in x0 + PATCH_PX / 4..x0 + 3 * PATCH_PX / 4 {
-                let c = capture.pattern.colour_at(x, y).index();
-                let v = capture.raw[y * w + x] as f64 - capture.black_level as f64;
+                let c = raw.pattern.colour_at(x, y).index();
+                let v = raw.samples[y * w + x] as f64 - black as f64;
                 rgb[c] += v / range;
                 counts[c] += 1.0;
                 let bands = &image.bands[(y * w + x) * BANDS..][..BANDS];
@@ -159,29 +159,6 @@ pub fn calibrate(camera: &str, illuminant: &str) -> Result<Calibrated, String> {
         patches,
         neutral,
     })
-}
-
-/// An illuminant of [`crate::spectra::ILLUMINANTS`] on the tracer's bands (unnormalised).
-pub fn illuminant_bands(illuminant: &str) -> Result<[f32; BANDS], String> {
-    let table = Table::parse(crate::spectra::ILLUMINANTS)?;
-    let spd = table.column(illuminant).ok_or_else(|| {
-        format!(
-            "unknown illuminant {illuminant:?}; known: {}",
-            table.names().join(", ")
-        )
-    })?;
-    Ok(crate::tracer::color::bands_from_grid(spd))
-}
-
-/// CIE XYZ of a band spectrum (the tracer's weights: constant 1 has `Y = 1`).
-pub fn bands_xyz(bands: &[f32; BANDS]) -> [f64; 3] {
-    let mut xyz = [0.0f64; 3];
-    for (b, w) in bands.iter().zip(&xyz_weights()) {
-        for k in 0..3 {
-            xyz[k] += (*b * w[k]) as f64;
-        }
-    }
-    xyz
 }
 
 /// The illuminant's XYZ (Y = 1) and its colour in camera RGB (green 1), on the tracer's bands.
@@ -254,88 +231,24 @@ fn solve6(mut a: [[f64; 6]; 6], mut b: [f64; 6]) -> Option<[f64; 6]> {
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
-/// A calibration file: the camera and one entry per illuminant. `camsim isp --calibration`,
-/// `camsim demo --calibration` and the DNG writer read it.
-pub fn to_toml(camera: &str, calibrations: &[Calibrated]) -> String {
-    let mut out = format!(
-        "# camsim colour calibration, written by `camsim calibrate`.\n\
-         # camera_to_xyz maps raw camera RGB (black subtracted, not white balanced) to CIE XYZ.\n\
-         camera = {camera:?}\n"
-    );
-    for c in calibrations {
-        let (mean, max) = mean_max(&c.delta_e_matrix);
-        let m = c.camera_to_xyz;
-        out += &format!(
-            "\n[[calibration]]\nilluminant = {:?}\ncct_k = {:.0}\ncamera_to_xyz = [\n  [{:.6}, {:.6}, {:.6}],\n  [{:.6}, {:.6}, {:.6}],\n  [{:.6}, {:.6}, {:.6}],\n]\ndelta_e_2000_mean = {mean:.3}\ndelta_e_2000_max = {max:.3}\n",
-            c.illuminant, c.cct_k, m[0][0], m[0][1], m[0][2], m[1][0], m[1][1], m[1][2], m[2][0], m[2][1], m[2][2]
-        );
-    }
-    out
-}
-
-/// A calibration read back from a file: camera name and (illuminant, CCT, matrix) entries.
-#[derive(Debug, Clone, PartialEq)]
-pub struct CalibrationFile {
-    /// Camera name.
-    pub camera: String,
-    /// Entries: illuminant name, CCT in kelvin, camera-to-XYZ matrix.
-    pub entries: Vec<(String, f64, Mat3)>,
-}
-
-#[derive(serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct FileEntry {
-    illuminant: String,
-    cct_k: f64,
-    camera_to_xyz: [[f64; 3]; 3],
-    #[allow(dead_code)]
-    delta_e_2000_mean: Option<f64>,
-    #[allow(dead_code)]
-    delta_e_2000_max: Option<f64>,
-}
-
-#[derive(serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct FileBody {
-    camera: String,
-    calibration: Vec<FileEntry>,
-}
-
-impl CalibrationFile {
-    /// Reads a file written by [`to_toml`].
-    pub fn read(path: &Path) -> Result<Self, String> {
-        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let body: FileBody =
-            toml::from_str(&text).map_err(|e| format!("{}: {}", path.display(), e.message()))?;
-        if body.calibration.is_empty() || body.calibration.len() > 2 {
-            return Err(format!(
-                "{}: expected one or two [[calibration]] entries, found {}",
-                path.display(),
-                body.calibration.len()
-            ));
-        }
-        let entries = body
-            .calibration
-            .into_iter()
-            .map(|e| (e.illuminant, e.cct_k, e.camera_to_xyz))
-            .collect();
-        let file = CalibrationFile {
-            camera: body.camera,
-            entries,
-        };
-        file.to_isp()
-            .map_err(|e| format!("{}: {e}", path.display()))?;
-        Ok(file)
-    }
-
-    /// isp-core's calibration (one or two matrices, interpolated by CCT).
-    pub fn to_isp(&self) -> Result<isp_core::ccm::Calibration, String> {
-        let r = match self.entries.as_slice() {
-            [(_, t, m)] => isp_core::ccm::Calibration::single(*t, *m),
-            [(_, t1, m1), (_, t2, m2)] => isp_core::ccm::Calibration::new([*t1, *t2], [*m1, *m2]),
-            _ => return Err("expected one or two calibrations".into()),
-        };
-        r.map_err(|e| e.to_string())
+/// The calibration file of `camera` under one or two illuminants, for
+/// [`CalibrationFile::to_toml`] (`camsim isp --calibration`, `camsim demo --calibration`).
+pub fn to_file(camera: &str, calibrations: &[Calibrated]) -> CalibrationFile {
+    CalibrationFile {
+        camera: camera.to_owned(),
+        entries: calibrations
+            .iter()
+            .map(|c| {
+                let (mean, max) = mean_max(&c.delta_e_matrix);
+                CalibrationEntry {
+                    illuminant: c.illuminant.clone(),
+                    cct_k: c.cct_k,
+                    camera_to_xyz: c.camera_to_xyz,
+                    delta_e_2000_mean: Some(mean),
+                    delta_e_2000_max: Some(max),
+                }
+            })
+            .collect(),
     }
 }
 

@@ -1,26 +1,24 @@
-//! host-tracer: the std side of camsim. It renders scenes through optics-core's cameras
-//! ([`tracer`], `camsim render` in [`render_cmd`], OpenEXR out through [`exr`]), runs isp-core
-//! on raw mosaics (`camsim isp`, [`isp_cmd`]), and holds the `camsim` command line.
+//! host-tracer: the camera before the ISP, on the host. It renders scenes through
+//! optics-core's cameras ([`tracer`]) onto a simulated sensor ([`sensor`]) to produce the raw
+//! Bayer frames isp-core consumes, with the ground truth beside them, and fits a camera's
+//! colour matrix on a rendered ColorChecker ([`calibrate`]).
 //!
-//! Also: the `camsim dof` calculator ([`dof`]), image files ([`imageio`]), `camsim demosaic` /
-//! `camsim bench demosaic` ([`demosaic_cmd`]) and spectral tables ([`spectra`]). The camera
-//! side: the sensor model ([`sensor`]), raw DNG files ([`dng`]), colour calibration on a
-//! rendered ColorChecker ([`calibrate`]) and `camsim demo` / `camsim calibrate`
-//! ([`demo_cmd`]), which run scene -> raw -> ISP -> sRGB with the ground truth beside it.
+//! Layers, each depending only on those before it:
+//! - [`spectra`] (the spectral tables and the renderer's band grid) and [`random`] (the PCG32
+//!   generator): shared by all that follows.
+//! - [`tracer`]: scenes, BVH, path tracing; [`render_bench`] measures what its features cost.
+//! - [`sensor`]: radiance to a raw frame ([`raw_formats::RawImage`]); it knows nothing of the
+//!   tracer, only camera RGB radiance and a [`sensor::LensGeometry`].
+//! - [`calibrate`]: renders the chart through the tracer's public API, captures it through the
+//!   sensor, fits the matrix.
+//!
+//! Nothing here parses command lines or prints: progress comes back through callbacks
+//! ([`tracer::render::render_with_progress`]), and the `camsim` crate is the command line.
 #![warn(missing_docs)]
 
 pub mod calibrate;
-pub mod cli_args;
-pub mod demo_cmd;
-pub mod demosaic_cmd;
-pub mod dng;
-pub mod dof;
-pub mod exr;
-pub mod imageio;
-pub mod isp_cmd;
-pub mod isp_options;
+pub mod random;
 pub mod render_bench;
-pub mod render_cmd;
 pub mod sensor;
 pub mod spectra;
 pub mod tracer;

@@ -29,8 +29,8 @@ pub struct BenchSettings {
     pub aperture_radius: f32,
 }
 
-/// One variant's figures.
-#[derive(Debug, Clone, PartialEq)]
+/// One variant's figures (serialised as they are for `camsim bench render --json`).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct FeatureRow {
     /// Short name of the variant.
     pub variant: &'static str,
@@ -42,19 +42,6 @@ pub struct FeatureRow {
     pub relative_time: f64,
     /// Mean linear RGB of the image (a check that the feature did something).
     pub mean_rgb: [f64; 3],
-}
-
-impl FeatureRow {
-    /// The row as a JSON object.
-    pub fn to_json(&self) -> serde_json::Value {
-        serde_json::json!({
-            "variant": self.variant,
-            "what": self.what,
-            "msamples_per_s": self.msamples_per_s,
-            "relative_time": self.relative_time,
-            "mean_rgb": self.mean_rgb,
-        })
-    }
 }
 
 type Edit = fn(&mut SceneDesc, &BenchSettings);
@@ -234,7 +221,6 @@ pub fn bench(
         render_settings.height = settings.height;
         render_settings.spp = settings.spp;
         render_settings.threads = settings.threads;
-        render_settings.progress = false;
         let mut best = 0.0f64;
         let mut mean_rgb = [0.0f64; 3];
         for _ in 0..settings.repeats {

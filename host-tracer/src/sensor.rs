@@ -37,14 +37,14 @@
 //! ```
 
 use isp_core::CfaPattern;
+use raw_formats::RawImage;
 
-use crate::spectra::{Table, CAMERAS, CIE1931};
-use crate::tracer::color::{bands_from_grid, BANDS};
-use crate::tracer::sampling::Rng;
+use crate::random::Rng;
+use crate::spectra::{bands_from_grid, Table, BANDS, CAMERAS, CIE1931};
 
 /// Per-pixel arithmetic of the sensor, free of any image type.
 pub mod pixel {
-    use crate::tracer::sampling::Rng;
+    use crate::random::Rng;
 
     /// Uniform in `[0, 1)` with 53 random bits.
     pub fn uniform(rng: &mut Rng) -> f64 {
@@ -222,10 +222,9 @@ impl Response {
                 }
                 rgb
             }
-            Response::LinearSrgb => crate::tracer::color::bands_to_linear_srgb(
-                bands,
-                &crate::tracer::color::xyz_weights(),
-            ),
+            Response::LinearSrgb => {
+                crate::spectra::bands_to_linear_srgb(bands, &crate::spectra::xyz_weights())
+            }
         }
     }
 
@@ -473,15 +472,14 @@ pub struct LensGeometry {
 }
 
 impl LensGeometry {
-    /// The scene camera's lens; a pinhole (no aperture) is taken as f/8.
-    pub fn of_camera(camera: &crate::tracer::scene::CameraDesc, width: u32, height: u32) -> Self {
-        let size = camera.sensor_mm(width, height);
-        let f = camera.focal_length_mm as f64;
-        let r = camera.aperture_radius_mm as f64;
+    /// A thin lens of focal length `focal_length_mm` and aperture radius `aperture_radius_mm`
+    /// in front of a sensor `sensor_mm` across; a pinhole (radius 0) is taken as f/8.
+    pub fn thin_lens(focal_length_mm: f64, aperture_radius_mm: f64, sensor_mm: [f64; 2]) -> Self {
+        let (f, r) = (focal_length_mm, aperture_radius_mm);
         LensGeometry {
             f_number: if r > 0.0 { f / (2.0 * r) } else { 8.0 },
             focal_length_mm: f,
-            sensor_mm: [size.x as f64, size.y as f64],
+            sensor_mm,
         }
     }
 }
@@ -542,20 +540,9 @@ impl Shading {
 /// One captured frame.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Capture {
-    /// Width.
-    pub width: usize,
-    /// Height.
-    pub height: usize,
-    /// CFA pattern.
-    pub pattern: CfaPattern,
-    /// ADC bits.
-    pub bits: u8,
-    /// Black level, DN.
-    pub black_level: u16,
-    /// White level, DN (the ADC maximum).
-    pub white_level: u16,
-    /// The mosaic, row-major.
-    pub raw: Vec<u16>,
+    /// The raw frame: the mosaic, its pattern, the ADC's bits, black level (the same at every
+    /// CFA position) and white level (the ADC maximum).
+    pub raw: RawImage,
     /// Noise-free camera RGB, 3 per pixel, in the ISP's linear units (fraction of
     /// `white - black`), without shading or defects: what a perfect ISP would recover before
     /// colour correction. May exceed 1 where the raw clipped.
@@ -661,13 +648,17 @@ pub fn capture(
         }
     }
     let defects = inject_defects(&mut raw, width, height, config, black, white);
-    Ok(Capture {
+    let raw = RawImage::new(
         width,
         height,
-        pattern: config.pattern,
-        bits: config.adc_bits,
-        black_level: black,
-        white_level: white,
+        config.pattern,
+        config.adc_bits,
+        [black; 4],
+        white,
+        raw,
+    )
+    .map_err(|e| format!("sensor: {e}"))?;
+    Ok(Capture {
         raw,
         truth_camera,
         exposure_s,

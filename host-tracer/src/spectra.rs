@@ -1,5 +1,7 @@
-//! Spectral data on one grid, 380..=780 nm at 5 nm (81 samples), built into the binary so it
-//! works on any machine: CIE 1931 2-degree colour matching functions, CIE illuminants (A, D50,
+//! Spectral data, in one place for the tracer, the sensor model and calibration: the tables on
+//! one grid, 380..=780 nm at 5 nm (81 samples), and the renderer's band grid ([`BANDS`] bands of
+//! 10 nm, 400..700 nm centres) with conversions between them. The tables are built into the
+//! binary so it works on any machine: CIE 1931 2-degree colour matching functions, CIE illuminants (A, D50,
 //! D65, FL2, FL11, LED-B3), the 24 ColorChecker reflectances (BabelColor average) and three
 //! cameras' sensitivities (Nikon 5100 and Sigma SDMerill measured by NPL, Canon EOS 5D Mark II
 //! from rawtoaces). All exported from colour-science 0.4.7; each file in `data/spectra/` names
@@ -42,6 +44,114 @@ pub const CAMERAS: [(&str, &str); 3] = [
         include_str!("../../data/spectra/camera_sigma_sdmerill.csv"),
     ),
 ];
+
+/// Spectral bands of the spectral path.
+pub const BANDS: usize = 31;
+/// Centre of the first band, nm; bands are [`BAND_NM`] wide (so 395..705 nm in all).
+pub const FIRST_BAND_NM: f64 = 400.0;
+/// Width of one band, nm.
+pub const BAND_NM: f64 = 10.0;
+
+/// Centre wavelength of band `i`, nm.
+pub fn band_centre_nm(i: usize) -> f64 {
+    FIRST_BAND_NM + BAND_NM * i as f64
+}
+
+/// Averages a spectrum sampled on the 380..=780 nm, 5 nm grid over each
+/// band (trapezoid weights 1/4, 1/2, 1/4 at the band's edges and centre).
+pub fn bands_from_grid(samples: &[f64]) -> [f32; BANDS] {
+    let at = |nm: f64| -> f64 {
+        let i = ((nm - FIRST_NM) / STEP_NM).round() as usize;
+        samples.get(i.min(SAMPLES - 1)).copied().unwrap_or_default()
+    };
+    std::array::from_fn(|b| {
+        let c = band_centre_nm(b);
+        (0.25 * at(c - 5.0) + 0.5 * at(c) + 0.25 * at(c + 5.0)) as f32
+    })
+}
+
+/// Band averages of a spectrum given at arbitrary increasing wavelengths (linear
+/// interpolation, held constant beyond the ends).
+pub fn bands_from_samples(wavelengths_nm: &[f64], values: &[f64]) -> [f32; BANDS] {
+    let at = |nm: f64| -> f64 {
+        let n = wavelengths_nm.len().min(values.len());
+        if n == 0 {
+            return 0.0;
+        }
+        if nm <= wavelengths_nm[0] {
+            return values[0];
+        }
+        for i in 1..n {
+            if nm <= wavelengths_nm[i] {
+                let t = (nm - wavelengths_nm[i - 1]) / (wavelengths_nm[i] - wavelengths_nm[i - 1]);
+                return values[i - 1] + t * (values[i] - values[i - 1]);
+            }
+        }
+        values[n - 1]
+    };
+    std::array::from_fn(|b| {
+        let c = band_centre_nm(b);
+        (0.25 * at(c - 5.0) + 0.5 * at(c) + 0.25 * at(c + 5.0)) as f32
+    })
+}
+
+/// The CIE 1931 colour matching functions averaged over each band and normalised so a spectrum
+/// of constant 1 has Y = 1 (the tracer's luminance unit): `XYZ = sum_b w[b] * L[b]`.
+pub fn xyz_weights() -> [[f32; 3]; BANDS] {
+    let table = Table::parse(CIE1931).expect("the built-in CIE 1931 table parses");
+    let cols: Vec<[f32; BANDS]> = ["x_bar", "y_bar", "z_bar"]
+        .iter()
+        .map(|name| bands_from_grid(table.column(name).expect("CIE 1931 has x, y, z")))
+        .collect();
+    let y_sum: f32 = cols[1].iter().sum();
+    std::array::from_fn(|b| [cols[0][b] / y_sum, cols[1][b] / y_sum, cols[2][b] / y_sum])
+}
+
+/// isp-core's XYZ -> linear sRGB matrix (the one copy of the IEC constants) in `f32`.
+const XYZ_TO_LINEAR_SRGB: [[f32; 3]; 3] = {
+    let m = isp_core::colour::XYZ_TO_LINEAR_SRGB;
+    let mut out = [[0.0f32; 3]; 3];
+    let mut i = 0;
+    while i < 9 {
+        out[i / 3][i % 3] = m[i / 3][i % 3] as f32;
+        i += 1;
+    }
+    out
+};
+
+/// Linear sRGB of a band spectrum, with `weights` from [`xyz_weights`].
+pub fn bands_to_linear_srgb(bands: &[f32], weights: &[[f32; 3]; BANDS]) -> [f32; 3] {
+    let mut xyz = [0.0f32; 3];
+    for (v, w) in bands.iter().zip(weights) {
+        for c in 0..3 {
+            xyz[c] += v * w[c];
+        }
+    }
+    std::array::from_fn(|r| (0..3).map(|c| XYZ_TO_LINEAR_SRGB[r][c] * xyz[c]).sum())
+}
+
+/// An illuminant of [`ILLUMINANTS`] on the band grid (unnormalised).
+pub fn illuminant_bands(illuminant: &str) -> Result<[f32; BANDS], String> {
+    let table = Table::parse(ILLUMINANTS)?;
+    let spd = table.column(illuminant).ok_or_else(|| {
+        format!(
+            "unknown illuminant {illuminant:?}; known: {}",
+            table.names().join(", ")
+        )
+    })?;
+    Ok(bands_from_grid(spd))
+}
+
+/// CIE XYZ of a band spectrum (weights from [`xyz_weights`]: constant 1 has `Y = 1`).
+pub fn bands_xyz(bands: &[f32; BANDS]) -> [f64; 3] {
+    let mut xyz = [0.0f64; 3];
+    for (b, w) in bands.iter().zip(&xyz_weights()) {
+        for k in 0..3 {
+            xyz[k] += (*b * w[k]) as f64;
+        }
+    }
+    xyz
+}
 
 /// Named columns of samples on the grid.
 #[derive(Debug, Clone, PartialEq)]
@@ -159,4 +269,38 @@ pub fn colorchecker(illuminant: &str, camera: &str) -> Result<PatchValues, Strin
         }));
     }
     Ok((xyz, rgb))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn constant_spectrum_has_unit_luminance() {
+        let w = xyz_weights();
+        let y: f32 = w.iter().map(|c| c[1]).sum();
+        assert!((y - 1.0).abs() < 1e-6);
+        // Equal energy is near-neutral in sRGB (E is not D65, so not exactly).
+        let rgb = bands_to_linear_srgb(&[1.0; BANDS], &w);
+        for c in rgb {
+            assert!((c - 1.0).abs() < 0.25, "{rgb:?}");
+        }
+    }
+
+    #[test]
+    fn samples_interpolate_onto_bands() {
+        let s = bands_from_samples(&[400.0, 700.0], &[0.0, 1.0]);
+        assert!((s[15] - 0.5).abs() < 1e-6, "{}", s[15]);
+    }
+
+    #[test]
+    fn xyz_to_srgb_is_isp_cores_matrix_in_f32() {
+        // The literal the tracer used to carry, before isp-core's became the one copy.
+        let literal: [[f32; 3]; 3] = [
+            [3.2406, -1.5372, -0.4986],
+            [-0.9689, 1.8758, 0.0415],
+            [0.0557, -0.2040, 1.0570],
+        ];
+        assert_eq!(XYZ_TO_LINEAR_SRGB, literal);
+    }
 }

@@ -15,7 +15,6 @@ fn shoot(desc: &SceneDesc, seed: u64, threads: usize) -> Rendered {
     let mut s = RenderSettings::for_scene(desc);
     s.seed = seed;
     s.threads = threads;
-    s.progress = false;
     render(desc, &s).unwrap()
 }
 
@@ -276,7 +275,7 @@ emission = {{ rgb = [1.0, 1.0, 1.0] }}
 fn the_same_seed_gives_the_same_image_at_any_thread_count() {
     let desc = host_tracer::tracer::scene_file::load("cornell-box").unwrap();
     let mut s = RenderSettings::for_scene(&desc);
-    (s.width, s.height, s.spp, s.progress) = (40, 24, 4, false);
+    (s.width, s.height, s.spp) = (40, 24, 4);
     s.threads = 1;
     let one = render(&desc, &s).unwrap();
     s.threads = 2;

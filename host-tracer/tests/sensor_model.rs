@@ -1,7 +1,8 @@
 //! The sensor model's noise statistics and the colour calibration, end to end.
 
-use host_tracer::calibrate::{calibrate, mean_max};
+use host_tracer::calibrate::calibrate;
 use host_tracer::sensor::{capture, LensGeometry, NoiseConfig, SensorConfig};
+use isp_core::metrics::mean_max;
 
 const LENS: LensGeometry = LensGeometry {
     f_number: 2.8,
@@ -14,13 +15,14 @@ fn flat_field(config: &SensorConfig, radiance: f32, side: usize) -> (Vec<f64>, f
     let frame = vec![radiance; side * side * 3];
     let c = capture(&frame, side, side, LENS, config).unwrap();
     let gain = config.dn_per_electron();
+    let (black, white) = (c.raw.black_level[0], c.raw.white_level);
     let electrons: Vec<f64> = c
         .raw
+        .samples
         .iter()
-        .map(|v| (*v as f64 - c.black_level as f64) / gain)
+        .map(|v| (*v as f64 - black as f64) / gain)
         .collect();
-    let expected_e =
-        c.units_per_radiance * radiance as f64 * (c.white_level - c.black_level) as f64 / gain;
+    let expected_e = c.units_per_radiance * radiance as f64 * (white - black) as f64 / gain;
     (electrons, expected_e, gain)
 }
 

@@ -185,19 +185,27 @@ fn fuzz_regressions_stay_fixed() {
 }
 
 fn valid_dng() -> Vec<u8> {
-    host_tracer::dng::Dng {
-        width: 6,
-        height: 4,
-        pattern: isp_core::CfaPattern::Grbg,
-        black_level: [64, 65, 66, 67],
-        white_level: 1023,
-        raw: (0..24).map(|i| i * 40).collect(),
+    use raw_formats::dng::{ColourCalibration, Dng, DngColour, Illuminant};
+    Dng {
+        image: raw_formats::RawImage::new(
+            6,
+            4,
+            isp_core::CfaPattern::Grbg,
+            10,
+            [64, 65, 66, 67],
+            1023,
+            (0..24).map(|i| i * 40).collect(),
+        )
+        .unwrap(),
         camera_model: "fuzz".into(),
-        calibrations: vec![(
-            host_tracer::dng::Illuminant::D65,
-            [[1.0, 0.1, 0.0], [0.0, 1.0, 0.1], [0.1, 0.0, 1.0]],
-        )],
-        as_shot_neutral: Some([0.5, 1.0, 0.7]),
+        colour: DngColour {
+            calibrations: vec![ColourCalibration::new(
+                Illuminant::D65,
+                [[1.0, 0.1, 0.0], [0.0, 1.0, 0.1], [0.1, 0.0, 1.0]],
+            )],
+            as_shot_neutral: Some([0.5, 1.0, 0.7]),
+            ..DngColour::default()
+        },
     }
     .encode()
     .unwrap()
@@ -206,5 +214,5 @@ fn valid_dng() -> Vec<u8> {
 #[test]
 fn dng_seed_decodes() {
     dng_decode(&valid_dng());
-    assert!(host_tracer::dng::Dng::decode(&valid_dng()).is_ok());
+    assert!(raw_formats::dng::Dng::decode(&valid_dng()).is_ok());
 }

@@ -1,19 +1,20 @@
 //! The ISP over real images: Kodak and McMaster turned into 12-bit raw mosaics. The fixed-point
 //! path's 8-bit output is within 1 LSB of the float path on at least 99.9% of samples and
-//! within 2 everywhere; `camsim isp` reproduces the documented float semantics (the f64
+//! within 2 everywhere; `camsim isp`'s development reproduces the documented float semantics (the f64
 //! reference) within 1 LSB on a Kodak image.
 
+use camsim::develop::{develop, RawInput};
+use camsim::isp_options;
 use camsim_tests::dataset;
 use camsim_tests::isp_reference::{reference, Frame, Settings};
-use clap::Parser;
-use host_tracer::imageio::{self, Image};
-use host_tracer::isp_cmd::{process, IspArgs};
 use isp_core::demosaic::Method;
 use isp_core::distortion::{BrownConrady, LensDistortion};
 use isp_core::frame::{RawFrame, RgbViewMut};
 use isp_core::pipeline::{FixedPipeline, FloatPipeline, IspConfig};
 use isp_core::tone::Look;
 use isp_core::CfaPattern;
+use raw_formats::image::{self as imageio, Image};
+use raw_formats::RawImage;
 
 const BLACK: u16 = 64;
 const WHITE: u16 = 4095;
@@ -102,59 +103,35 @@ fn fixed_path_agrees_with_float_over_kodak_and_mcmaster() {
     assert!(worst <= 2, "worst {worst}");
 }
 
-#[derive(Parser)]
-struct Cli {
-    #[command(flatten)]
-    isp: IspArgs,
-}
-
 #[test]
 fn camsim_isp_reproduces_the_float_semantics_on_kodak() {
     let path = &dataset("kodak")[22]; // kodim23: saturated colours
     let rgb = imageio::read(path).unwrap();
     let (w, h) = (rgb.width, rgb.height);
     let data = raw12(&rgb);
-    let mosaic = Image {
-        width: w,
-        height: h,
-        channels: 1,
-        bits: 16,
-        data: data.clone(),
-    };
-    let args = Cli::try_parse_from([
-        "camsim",
-        "--input",
-        "in.pgm",
-        "--output",
-        "out.png",
-        "--bits",
-        "12",
-        "--pattern",
-        "RGGB",
-        "--black-level",
-        "64",
-        "--white-level",
-        "4095",
-        "--gain",
-        "1.1",
-        "--wb",
-        "1.3,1,1.15",
-        "--ccm",
-        "1.5,-0.35,-0.15,-0.2,1.4,-0.2,0.02,-0.4,1.38",
-        "--demosaic",
-        "bilinear",
-        "--denoise",
-        "0.03",
-        "--look",
-        "vivid",
-        "--path",
-        "float",
-        "--out-bits",
-        "8",
-    ])
-    .unwrap()
-    .isp;
-    let (report, out) = process(&mosaic, &args).unwrap();
+    let input = RawInput::plain(
+        RawImage::new(w, h, CfaPattern::Rggb, 16, [0; 4], 65535, data.clone()).unwrap(),
+    );
+    // The options as `camsim isp --config` reads them (keys are the flags' names).
+    let options = isp_options::from_toml(
+        r#"
+        bits = 12
+        pattern = "RGGB"
+        black-level = 64
+        white-level = 4095
+        gain = 1.1
+        wb = [1.3, 1, 1.15]
+        ccm = [[1.5, -0.35, -0.15], [-0.2, 1.4, -0.2], [0.02, -0.4, 1.38]]
+        demosaic = "bilinear"
+        denoise = 0.03
+        look = "vivid"
+        path = "float"
+        out-bits = 8
+        "#,
+        "isp.toml".as_ref(),
+    )
+    .unwrap();
+    let (report, out) = develop(&input, &options, None).unwrap();
     assert_eq!(out.bits, 8);
     assert!(report.stages.contains(&"denoise") && report.stages.contains(&"colour matrix"));
     let frame = Frame {

@@ -4,10 +4,11 @@
 //! there.
 
 use camsim_tests::oracle::oracle_arrays;
-use host_tracer::dng::{Dng, Illuminant};
 use isp_core::colour::{mat3_inverse, mat3_mul, Mat3, LINEAR_SRGB_TO_XYZ};
 use isp_core::CfaPattern;
 use proptest::prelude::*;
+use raw_formats::dng::{ColourCalibration, Dng, DngColour, Illuminant};
+use raw_formats::RawImage;
 
 const PATTERNS: [CfaPattern; 4] = [
     CfaPattern::Rggb,
@@ -65,21 +66,19 @@ proptest! {
             let m = mat3_inverse(&LINEAR_SRGB_TO_XYZ).unwrap();
             std::array::from_fn(|i| std::array::from_fn(|j| m[i][j] + jitter[3 * i + j]))
         };
-        let mut calibrations = vec![(Illuminant::D65, d65)];
+        let mut calibrations = vec![ColourCalibration::new(Illuminant::D65, d65)];
         if two_matrices {
             let a: Mat3 = std::array::from_fn(|i| std::array::from_fn(|j| d65[i][j] * 0.9));
-            calibrations.insert(0, (Illuminant::A, a));
+            calibrations.insert(0, ColourCalibration::new(Illuminant::A, a));
         }
         let dng = Dng {
-            width,
-            height,
-            pattern: PATTERNS[pattern],
-            black_level: black,
-            white_level: white,
-            raw,
+            image: RawImage::new(width, height, PATTERNS[pattern], bits, black, white, raw).unwrap(),
             camera_model: "camsim oracle test".into(),
-            calibrations,
-            as_shot_neutral: Some([neutral[0], 1.0, neutral[2]]),
+            colour: DngColour {
+                calibrations,
+                as_shot_neutral: Some([neutral[0], 1.0, neutral[2]]),
+                ..DngColour::default()
+            },
         };
         let path = std::env::temp_dir().join(format!("camsim-oracle-{}-{seed}.dng", std::process::id()));
         dng.write(&path).unwrap();
@@ -89,7 +88,7 @@ proptest! {
 
         let samples: Vec<u16> = arrays[0].to_f64().iter().map(|v| *v as u16).collect();
         prop_assert_eq!(arrays[0].shape(), &[height, width]);
-        prop_assert!(samples == dng.raw, "raw samples differ");
+        prop_assert!(samples == dng.image.samples, "raw samples differ");
         // LibRaw's colour indices: 0 R, 1 G, 2 B, 3 the second G.
         let libraw_pattern: Vec<usize> = arrays[1].to_f64().iter().map(|v| *v as usize).collect();
         let ours: Vec<usize> = (0..4).map(|p| PATTERNS[pattern].colour_at(p % 2, p / 2).index()).collect();
@@ -117,15 +116,18 @@ proptest! {
 #[test]
 fn libraw_white_level() {
     let dng = Dng {
-        width: 24,
-        height: 24,
-        pattern: CfaPattern::Rggb,
-        black_level: [256; 4],
-        white_level: 4095,
-        raw: vec![1000; 576],
+        image: RawImage::new(
+            24,
+            24,
+            CfaPattern::Rggb,
+            12,
+            [256; 4],
+            4095,
+            vec![1000; 576],
+        )
+        .unwrap(),
         camera_model: "camsim".into(),
-        calibrations: vec![],
-        as_shot_neutral: None,
+        colour: DngColour::default(),
     };
     let path = std::env::temp_dir().join(format!("camsim-white-{}.dng", std::process::id()));
     dng.write(&path).unwrap();

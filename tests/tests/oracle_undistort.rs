@@ -5,11 +5,11 @@
 
 use camsim_tests::oracle::{oracle_arrays, Array};
 use camsim_tests::strategies::lens;
-use host_tracer::imageio;
 use isp_core::distortion::LensDistortion;
 use isp_core::frame::{IntSample, RgbView, RgbViewMut};
 use optics_core::distortion::BrownConrady;
 use proptest::prelude::*;
+use raw_formats::image as imageio;
 
 fn ours<T: IntSample>(data: &[T], w: usize, h: usize, lens: &LensDistortion) -> Vec<u32> {
     let mut out = vec![T::default(); 3 * w * h];

@@ -6,11 +6,12 @@
 //! Kodak and stays within 0.5 dB of it on McMaster, and bilinear is below both. camsim's
 //! edge-aware variant does not exist, so there is nothing to compare with OpenCV's `_EA`.
 
+use camsim::demosaic::{mosaic_from_rgb, Demosaic as Method};
 use camsim_tests::dataset;
 use camsim_tests::oracle::{oracle_arrays, Array};
-use host_tracer::demosaic_cmd::{cpsnr, mosaic_from_rgb, Method};
-use host_tracer::imageio;
+use isp_core::metrics::cpsnr;
 use isp_core::CfaPattern;
+use raw_formats::image as imageio;
 
 /// Mean CPSNR over a set of VNG (through the oracle) and of camsim's bilinear and MHC.
 fn set_cpsnr(name: &str) -> Option<[f64; 3]> {
@@ -28,7 +29,7 @@ fn set_cpsnr(name: &str) -> Option<[f64; 3]> {
         )?;
         let vng: Vec<u16> = vng[0].to_f64().iter().map(|v| *v as u16).collect();
         sums[0] += cpsnr(&vng, &rgb.data, w, h, 10, 255.0);
-        for (k, method) in [Method::Bilinear, Method::Mhc].into_iter().enumerate() {
+        for (k, method) in [Method::BILINEAR, Method::MHC].into_iter().enumerate() {
             let mut out = vec![0u8; 3 * w * h];
             method
                 .run(&bytes, w, h, CfaPattern::Rggb, &mut out)

@@ -1,17 +1,10 @@
 //! Colour carried along a path: three linear RGB channels for RGB scenes, or [`BANDS`] spectral
-//! bands of 10 nm for scenes with spectral data. The integrator is generic over the count, so an
+//! bands of 10 nm (the band grid of [`crate::spectra`]) for scenes with spectral data. The integrator is generic over the count, so an
 //! RGB scene pays for three multiplies per bounce, not thirty-one.
 
 use std::ops::{Add, AddAssign, Div, Mul};
 
-use crate::spectra::{Table, CIE1931, FIRST_NM, SAMPLES, STEP_NM};
-
-/// Spectral bands of the spectral path.
-pub const BANDS: usize = 31;
-/// Centre of the first band, nm; bands are [`BAND_NM`] wide (so 395..705 nm in all).
-pub const FIRST_BAND_NM: f64 = 400.0;
-/// Width of one band, nm.
-pub const BAND_NM: f64 = 10.0;
+use crate::spectra::{band_centre_nm, BANDS};
 
 /// `N` channel values (linear RGB for `N = 3`, spectral bands for `N = BANDS`).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -87,49 +80,6 @@ impl<const N: usize> Div<f32> for Channels<N> {
     }
 }
 
-/// Centre wavelength of band `i`, nm.
-pub fn band_centre_nm(i: usize) -> f64 {
-    FIRST_BAND_NM + BAND_NM * i as f64
-}
-
-/// Averages a spectrum sampled on the 380..=780 nm, 5 nm grid of [`crate::spectra`] over each
-/// band (trapezoid weights 1/4, 1/2, 1/4 at the band's edges and centre).
-pub fn bands_from_grid(samples: &[f64]) -> [f32; BANDS] {
-    let at = |nm: f64| -> f64 {
-        let i = ((nm - FIRST_NM) / STEP_NM).round() as usize;
-        samples.get(i.min(SAMPLES - 1)).copied().unwrap_or_default()
-    };
-    std::array::from_fn(|b| {
-        let c = band_centre_nm(b);
-        (0.25 * at(c - 5.0) + 0.5 * at(c) + 0.25 * at(c + 5.0)) as f32
-    })
-}
-
-/// Band averages of a spectrum given at arbitrary increasing wavelengths (linear
-/// interpolation, held constant beyond the ends).
-pub fn bands_from_samples(wavelengths_nm: &[f64], values: &[f64]) -> [f32; BANDS] {
-    let at = |nm: f64| -> f64 {
-        let n = wavelengths_nm.len().min(values.len());
-        if n == 0 {
-            return 0.0;
-        }
-        if nm <= wavelengths_nm[0] {
-            return values[0];
-        }
-        for i in 1..n {
-            if nm <= wavelengths_nm[i] {
-                let t = (nm - wavelengths_nm[i - 1]) / (wavelengths_nm[i] - wavelengths_nm[i - 1]);
-                return values[i - 1] + t * (values[i] - values[i - 1]);
-            }
-        }
-        values[n - 1]
-    };
-    std::array::from_fn(|b| {
-        let c = band_centre_nm(b);
-        (0.25 * at(c - 5.0) + 0.5 * at(c) + 0.25 * at(c + 5.0)) as f32
-    })
-}
-
 /// A spectrum standing in for an RGB triple in a spectral scene: blue below 490 nm, green to
 /// 590 nm, red above. A constant RGB gives the same constant spectrum (white stays white,
 /// reflectances stay in [0, 1]); other colours are approximate. Scenes that need exact colour
@@ -152,56 +102,12 @@ pub fn band_rgb_channel(i: usize) -> usize {
     }
 }
 
-/// The CIE 1931 colour matching functions averaged over each band and normalised so a spectrum
-/// of constant 1 has Y = 1 (the tracer's luminance unit): `XYZ = sum_b w[b] * L[b]`.
-pub fn xyz_weights() -> [[f32; 3]; BANDS] {
-    let table = Table::parse(CIE1931).expect("the built-in CIE 1931 table parses");
-    let cols: Vec<[f32; BANDS]> = ["x_bar", "y_bar", "z_bar"]
-        .iter()
-        .map(|name| bands_from_grid(table.column(name).expect("CIE 1931 has x, y, z")))
-        .collect();
-    let y_sum: f32 = cols[1].iter().sum();
-    std::array::from_fn(|b| [cols[0][b] / y_sum, cols[1][b] / y_sum, cols[2][b] / y_sum])
-}
-
-/// CIE XYZ to linear sRGB (IEC 61966-2-1, D65).
-pub const XYZ_TO_LINEAR_SRGB: [[f32; 3]; 3] = [
-    [3.2406, -1.5372, -0.4986],
-    [-0.9689, 1.8758, 0.0415],
-    [0.0557, -0.2040, 1.0570],
-];
-
-/// Linear sRGB of a band spectrum, with `weights` from [`xyz_weights`].
-pub fn bands_to_linear_srgb(bands: &[f32], weights: &[[f32; 3]; BANDS]) -> [f32; 3] {
-    let mut xyz = [0.0f32; 3];
-    for (v, w) in bands.iter().zip(weights) {
-        for c in 0..3 {
-            xyz[c] += v * w[c];
-        }
-    }
-    std::array::from_fn(|r| (0..3).map(|c| XYZ_TO_LINEAR_SRGB[r][c] * xyz[c]).sum())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
-    fn constant_spectrum_has_unit_luminance() {
-        let w = xyz_weights();
-        let y: f32 = w.iter().map(|c| c[1]).sum();
-        assert!((y - 1.0).abs() < 1e-6);
-        // Equal energy is near-neutral in sRGB (E is not D65, so not exactly).
-        let rgb = bands_to_linear_srgb(&[1.0; BANDS], &w);
-        for c in rgb {
-            assert!((c - 1.0).abs() < 0.25, "{rgb:?}");
-        }
-    }
-
-    #[test]
     fn rgb_bands_keep_constants() {
         assert_eq!(bands_from_rgb([0.5; 3]), [0.5; BANDS]);
-        let s = bands_from_samples(&[400.0, 700.0], &[0.0, 1.0]);
-        assert!((s[15] - 0.5).abs() < 1e-6, "{}", s[15]);
     }
 }

@@ -5,13 +5,13 @@
 //! chromatic aberration); Brown-Conrady distortion is applied to the raster.
 //!
 //! Colour is three linear RGB channels unless the scene has spectral data, in which case it is
-//! [`color::BANDS`] bands of 10 nm ([`color`]): a scene pays only for what it uses.
+//! [`crate::spectra::BANDS`] bands of 10 nm ([`color`]): a scene pays only for what it uses.
 //!
 //! ```
 //! use host_tracer::tracer::{render::{render, RenderSettings}, scene_file};
 //! let scene = scene_file::load("cornell-box").unwrap();
 //! let mut settings = RenderSettings::for_scene(&scene);
-//! (settings.width, settings.height, settings.spp, settings.progress) = (16, 16, 4, false);
+//! (settings.width, settings.height, settings.spp) = (16, 16, 4);
 //! let image = render(&scene, &settings).unwrap();
 //! assert_eq!(image.rgb.len(), 16 * 16 * 3);
 //! assert!(image.rgb.iter().all(|v| v.is_finite() && *v >= 0.0));

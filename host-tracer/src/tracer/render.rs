@@ -1,17 +1,18 @@
 //! Rendering an image: tiles of 16 x 16 pixels shared among threads (rayon), each pixel with
 //! its own random stream, so the result for a seed does not depend on the thread count; a
-//! one-pixel box filter (each sample lands in its own pixel); progress on stderr.
+//! one-pixel box filter (each sample lands in its own pixel). Progress is reported through a
+//! callback ([`render_with_progress`]); nothing here prints.
 
-use std::io::IsTerminal;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 
-use super::color::{band_rgb_channel, bands_to_linear_srgb, xyz_weights, Channels, BANDS};
+use super::color::{band_rgb_channel, Channels};
 use super::integrator::{radiance, PathSettings};
 use super::sampling::Rng;
 use super::scene::{CameraRig, MaskTable, Scene, SceneDesc};
+use crate::spectra::{bands_to_linear_srgb, xyz_weights, BANDS};
 
 /// What to render and how.
 #[derive(Debug, Clone, PartialEq)]
@@ -28,8 +29,6 @@ pub struct RenderSettings {
     pub threads: usize,
     /// Path limits.
     pub path: PathSettings,
-    /// Show a progress bar on stderr (when it is a terminal).
-    pub progress: bool,
 }
 
 /// Largest width or height accepted.
@@ -50,7 +49,6 @@ impl RenderSettings {
                 max_depth: desc.max_depth,
                 ..PathSettings::default()
             },
-            progress: true,
         }
     }
 
@@ -104,9 +102,28 @@ const TILE: u32 = 16;
 
 /// Renders `desc`. Spectral scenes are traced in [`BANDS`] bands, others in RGB.
 pub fn render(desc: &SceneDesc, settings: &RenderSettings) -> Result<Rendered, String> {
+    render_with_progress(desc, settings, &|_| {})
+}
+
+/// How far a render is: tiles finished out of all tiles.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RenderProgress {
+    /// Tiles finished.
+    pub done: usize,
+    /// Tiles in all.
+    pub total: usize,
+}
+
+/// [`render`], calling `progress` after each tile (from the worker threads, so it must be
+/// cheap and `Sync`).
+pub fn render_with_progress(
+    desc: &SceneDesc,
+    settings: &RenderSettings,
+    progress: &(dyn Fn(RenderProgress) + Sync),
+) -> Result<Rendered, String> {
     settings.check()?;
     if desc.is_spectral() {
-        let mut out = render_channels::<BANDS>(desc, settings)?;
+        let mut out = render_channels::<BANDS>(desc, settings, progress)?;
         let weights = xyz_weights();
         let rgb = out
             .bands
@@ -116,7 +133,7 @@ pub fn render(desc: &SceneDesc, settings: &RenderSettings) -> Result<Rendered, S
         out.rgb = rgb;
         Ok(out)
     } else {
-        render_channels::<3>(desc, settings)
+        render_channels::<3>(desc, settings, progress)
     }
 }
 
@@ -178,6 +195,7 @@ fn render_tile<const N: usize>(
 fn render_channels<const N: usize>(
     desc: &SceneDesc,
     settings: &RenderSettings,
+    progress: &(dyn Fn(RenderProgress) + Sync),
 ) -> Result<Rendered, String> {
     let start = Instant::now();
     let mut table = MaskTable::default();
@@ -198,25 +216,18 @@ fn render_channels<const N: usize>(
         .build()
         .map_err(|e| format!("cannot start render threads: {e}"))?;
     let done = AtomicUsize::new(0);
-    let show = settings.progress && std::io::stderr().is_terminal();
+    let total = tiles.len();
     let begin = Instant::now();
-    let finished = std::sync::atomic::AtomicBool::new(false);
-    let results: Vec<Vec<Channels<N>>> = std::thread::scope(|scope| {
-        if show {
-            scope.spawn(|| progress_bar(&done, tiles.len(), &finished, begin));
-        }
-        let results = pool.install(|| {
-            tiles
-                .par_iter()
-                .map(|&(x0, y0)| {
-                    let tile = render_tile(&scene, &rig, settings, x0, y0);
-                    done.fetch_add(1, Ordering::Relaxed);
-                    tile
-                })
-                .collect()
-        });
-        finished.store(true, Ordering::Relaxed);
-        results
+    let results: Vec<Vec<Channels<N>>> = pool.install(|| {
+        tiles
+            .par_iter()
+            .map(|&(x0, y0)| {
+                let tile = render_tile(&scene, &rig, settings, x0, y0);
+                let done = done.fetch_add(1, Ordering::Relaxed) + 1;
+                progress(RenderProgress { done, total });
+                tile
+            })
+            .collect()
     });
     let elapsed = begin.elapsed();
     let mut data = vec![0.0f32; (w * h) as usize * N];
@@ -243,29 +254,4 @@ fn render_channels<const N: usize>(
         prepare,
         samples,
     })
-}
-
-fn progress_bar(
-    done: &AtomicUsize,
-    total: usize,
-    finished: &std::sync::atomic::AtomicBool,
-    begin: Instant,
-) {
-    let draw = |n: usize| {
-        let width = 30;
-        let filled = n * width / total.max(1);
-        eprint!(
-            "\r\x1b[Krender [{}{}] {:>3}%  {:.1} s",
-            "#".repeat(filled),
-            " ".repeat(width - filled),
-            n * 100 / total.max(1),
-            begin.elapsed().as_secs_f64()
-        );
-    };
-    while !finished.load(Ordering::Relaxed) {
-        draw(done.load(Ordering::Relaxed));
-        std::thread::sleep(Duration::from_millis(200));
-    }
-    draw(total);
-    eprintln!();
 }

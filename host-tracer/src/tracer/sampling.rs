@@ -1,63 +1,10 @@
-//! Random numbers and the warps the path tracer draws directions with.
-//!
-//! Every pixel has its own generator, seeded from the render seed and the pixel's index, so an
-//! image is the same for a seed whatever the thread count or tile order.
+//! The warps the path tracer draws directions with, and its random numbers: every pixel has
+//! its own [`Rng`] stream ([`crate::random`]), seeded from the render seed and the pixel's
+//! index, so an image is the same for a seed whatever the thread count or tile order.
 
 use glam::{Vec2, Vec3};
 
-/// PCG32 (O'Neill 2014, XSH-RR output), a small fast generator with good statistics.
-#[derive(Debug, Clone)]
-pub struct Rng {
-    state: u64,
-    increment: u64,
-}
-
-const PCG_MULTIPLIER: u64 = 6364136223846793005;
-
-/// SplitMix64's finaliser (Steele et al. 2014): spreads nearby seeds far apart.
-fn mix64(mut z: u64) -> u64 {
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58476d1ce4e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d049bb133111eb);
-    z ^ (z >> 31)
-}
-
-impl Rng {
-    /// The generator for stream `stream` (a pixel index) of render seed `seed`.
-    pub fn new(seed: u64, stream: u64) -> Self {
-        let mut rng = Self {
-            state: 0,
-            increment: (mix64(stream ^ 0x9e3779b97f4a7c15) << 1) | 1,
-        };
-        rng.next_u32();
-        rng.state = rng.state.wrapping_add(mix64(seed));
-        rng.next_u32();
-        rng
-    }
-
-    /// The next 32 random bits.
-    #[inline]
-    pub fn next_u32(&mut self) -> u32 {
-        let old = self.state;
-        self.state = old
-            .wrapping_mul(PCG_MULTIPLIER)
-            .wrapping_add(self.increment);
-        let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
-        xorshifted.rotate_right((old >> 59) as u32)
-    }
-
-    /// Uniform in `[0, 1)`.
-    #[inline]
-    pub fn next_f32(&mut self) -> f32 {
-        // 24 bits: every value exactly representable and strictly below 1.
-        (self.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0)
-    }
-
-    /// Two uniforms in `[0, 1)`.
-    #[inline]
-    pub fn next_2d(&mut self) -> Vec2 {
-        Vec2::new(self.next_f32(), self.next_f32())
-    }
-}
+pub use crate::random::Rng;
 
 /// An orthonormal basis around unit `n` (Duff et al. 2017, "Building an orthonormal basis,
 /// revisited"): returns `(t, b)` with `t x b = n`.

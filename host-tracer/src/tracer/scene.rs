@@ -9,9 +9,10 @@ use optics_core::chromatic::ChromaticAberration;
 use optics_core::distortion::BrownConrady;
 
 use super::accel::{Accel, Primitive};
-use super::color::{bands_from_rgb, Channels, BANDS};
+use super::color::{bands_from_rgb, Channels};
 use super::geometry::Shape;
 use super::sampling::Rng;
+use crate::spectra::BANDS;
 
 /// A colour given in a scene: linear RGB, or a spectrum in [`BANDS`] bands.
 #[derive(Debug, Clone, PartialEq)]

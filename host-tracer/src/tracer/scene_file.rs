@@ -8,9 +8,9 @@ use glam::{Mat4, Vec3};
 use serde::Deserialize;
 use toml::Spanned;
 
-use super::color::{bands_from_grid, bands_from_samples, xyz_weights};
 use super::geometry::{cube, quad, Shape, Sphere, Triangle};
 use super::scene::{ApertureDesc, CameraDesc, Colour, SceneDesc, SensorSize, ShapeDesc};
+use crate::spectra::{bands_from_grid, bands_from_samples, xyz_weights};
 use crate::spectra::{Table, COLORCHECKER, ILLUMINANTS};
 
 /// The built-in scenes, by name: the Cornell box of Mitsuba 3 and the demo scene.
@@ -573,8 +573,8 @@ fn camera(
                         "a mask aperture needs png = \"file.png\"".into(),
                     )
                 })?;
-                let image =
-                    crate::imageio::read(&dir.join(png)).map_err(|e| err("aperture.png", e))?;
+                let image = raw_formats::image::read(&dir.join(png))
+                    .map_err(|e| err("aperture.png", e.to_string()))?;
                 let shift = image.bits.saturating_sub(8);
                 let cells = image
                     .data

@@ -88,7 +88,7 @@ fn render_writes_linear_exr_and_an_srgb_preview() {
         left[0] > 2.0 * left[1] && right[1] > 2.0 * right[0],
         "{left:?} {right:?}"
     );
-    let preview = host_tracer::imageio::read(&png).unwrap();
+    let preview = raw_formats::image::read(&png).unwrap();
     assert_eq!(
         (
             preview.width,
@@ -371,7 +371,7 @@ fn scene_files_load_meshes_masks_and_spectra() {
         "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n",
     )
     .unwrap();
-    let mask = host_tracer::imageio::Image {
+    let mask = raw_formats::image::Image {
         width: 4,
         height: 4,
         channels: 1,
@@ -380,7 +380,7 @@ fn scene_files_load_meshes_masks_and_spectra() {
             0, 255, 255, 0, 255, 255, 255, 255, 255, 255, 255, 255, 0, 255, 255, 0,
         ],
     };
-    host_tracer::imageio::write(&dir.join("mask.png"), &mask).unwrap();
+    raw_formats::image::write(&dir.join("mask.png"), &mask).unwrap();
     let text = r#"
 [camera]
 position = [0, 0, 5]
@@ -421,7 +421,7 @@ emission = { illuminant = "D65", luminance = 3.0 }
         panic!("{:?}", scene.shapes[2].emission)
     };
     // Scaled to the luminance asked for.
-    let w = host_tracer::tracer::color::xyz_weights();
+    let w = host_tracer::spectra::xyz_weights();
     let y: f32 = light.iter().zip(&w).map(|(v, w)| v * w[1]).sum();
     assert!((y - 3.0).abs() < 1e-4, "{y}");
     assert!(matches!(
@@ -433,17 +433,9 @@ emission = { illuminant = "D65", luminance = 3.0 }
         }
     ));
     let mut settings = host_tracer::tracer::render::RenderSettings::for_scene(&scene);
-    (
-        settings.width,
-        settings.height,
-        settings.spp,
-        settings.progress,
-    ) = (16, 16, 2, false);
+    (settings.width, settings.height, settings.spp) = (16, 16, 2);
     let image = host_tracer::tracer::render::render(&scene, &settings).unwrap();
-    assert_eq!(
-        image.bands.len(),
-        16 * 16 * host_tracer::tracer::color::BANDS
-    );
+    assert_eq!(image.bands.len(), 16 * 16 * host_tracer::spectra::BANDS);
     assert!(image.rgb.iter().all(|v| v.is_finite()));
 }
 

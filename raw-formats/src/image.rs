@@ -1,10 +1,16 @@
 //! Image files: PNG (8/16-bit grey or RGB, through the `png` crate) and binary PGM/PPM
 //! (P5/P6, 8 or 16 bit). Samples are held as `u16` with the file's bit depth; errors name the
-//! file and what was wrong with it.
+//! file and what was wrong with it. [`read_mosaic`] reads a single-channel file as a
+//! [`RawImage`].
 
 use std::fs::File;
 use std::io::{BufReader, BufWriter, Read, Write};
 use std::path::Path;
+
+use isp_core::CfaPattern;
+
+use crate::error::{FormatError, Result};
+use crate::raw_image::RawImage;
 
 /// An image in memory: `channels` samples per pixel (1 grey, 3 RGB), row-major.
 #[derive(Debug, Clone, PartialEq)]
@@ -21,60 +27,89 @@ pub struct Image {
     pub data: Vec<u16>,
 }
 
-fn err(path: &Path, what: impl std::fmt::Display) -> String {
-    format!("{}: {what}", path.display())
+const EXTENSIONS: &str = ".png, .pgm or .ppm";
+
+fn extension(path: &Path) -> Option<String> {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
 }
 
 /// Reads a PNG, PGM or PPM file, chosen by its extension.
-pub fn read(path: &Path) -> Result<Image, String> {
-    match path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(|e| e.to_ascii_lowercase())
-        .as_deref()
-    {
+pub fn read(path: &Path) -> Result<Image> {
+    match extension(path).as_deref() {
         Some("png") => read_png(path),
         Some("pgm") | Some("ppm") => read_pnm(path),
-        _ => Err(err(path, "unknown image type: expected .png, .pgm or .ppm")),
+        _ => Err(FormatError::UnknownExtension {
+            expected: EXTENSIONS,
+        }),
     }
+    .map_err(|e| match e {
+        e @ FormatError::Io { .. } => e,
+        e => e.in_file(path),
+    })
+}
+
+/// Reads a single-channel PNG, PGM or PPM as a raw mosaic: RGGB, `bits` the file's depth,
+/// black 0, white the largest code; the caller sets what the file does not say.
+pub fn read_mosaic(path: &Path) -> Result<RawImage> {
+    let image = read(path)?;
+    if image.channels != 1 {
+        return Err(FormatError::Unsupported {
+            field: "channel count",
+            value: image.channels.to_string(),
+            supported: "expected a single-channel mosaic",
+        }
+        .in_file(path));
+    }
+    let white = ((1u32 << image.bits) - 1) as u16;
+    RawImage::new(
+        image.width,
+        image.height,
+        CfaPattern::Rggb,
+        image.bits,
+        [0; 4],
+        white,
+        image.data,
+    )
+    .map_err(|e| e.in_file(path))
 }
 
 /// Writes a PNG, PGM (grey) or PPM (RGB) file, chosen by its extension.
-pub fn write(path: &Path, image: &Image) -> Result<(), String> {
-    match path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(|e| e.to_ascii_lowercase())
-        .as_deref()
-    {
+pub fn write(path: &Path, image: &Image) -> Result<()> {
+    match extension(path).as_deref() {
         Some("png") => write_png(path, image),
         Some("pgm") | Some("ppm") => write_pnm(path, image),
-        _ => Err(err(path, "unknown image type: expected .png, .pgm or .ppm")),
+        _ => Err(FormatError::UnknownExtension {
+            expected: EXTENSIONS,
+        }
+        .in_file(path)),
     }
 }
 
-fn read_png(path: &Path) -> Result<Image, String> {
-    let file = File::open(path).map_err(|e| err(path, e))?;
+fn read_png(path: &Path) -> Result<Image> {
+    let file = File::open(path).map_err(|e| FormatError::io(path, e))?;
     let mut decoder = png::Decoder::new(BufReader::new(file));
     decoder.set_transformations(png::Transformations::EXPAND);
-    let mut reader = decoder
-        .read_info()
-        .map_err(|e| err(path, format!("not a readable PNG: {e}")))?;
-    let size = reader
-        .output_buffer_size()
-        .ok_or_else(|| err(path, "PNG too large"))?;
+    let mut reader = decoder.read_info().map_err(FormatError::PngDecode)?;
+    let size = reader.output_buffer_size().ok_or(FormatError::OutOfRange {
+        field: "PNG size",
+        value: "too large".into(),
+        allowed: "what fits in memory".into(),
+    })?;
     let mut buf = vec![0u8; size];
     let info = reader
         .next_frame(&mut buf)
-        .map_err(|e| err(path, format!("corrupt PNG: {e}")))?;
+        .map_err(FormatError::PngDecode)?;
     let channels = match info.color_type {
         png::ColorType::Grayscale => 1,
         png::ColorType::Rgb => 3,
         other => {
-            return Err(err(
-                path,
-                format!("{other:?} PNG: expected grey or RGB without alpha"),
-            ))
+            return Err(FormatError::Unsupported {
+                field: "PNG colour type",
+                value: format!("{other:?}"),
+                supported: "grey or RGB without alpha",
+            })
         }
     };
     let (width, height) = (info.width as usize, info.height as usize);
@@ -82,10 +117,11 @@ fn read_png(path: &Path) -> Result<Image, String> {
         png::BitDepth::Eight => 8,
         png::BitDepth::Sixteen => 16,
         other => {
-            return Err(err(
-                path,
-                format!("{other:?}-bit PNG: expected 8 or 16 bits"),
-            ))
+            return Err(FormatError::Unsupported {
+                field: "PNG bit depth",
+                value: format!("{other:?}"),
+                supported: "8 or 16 bits",
+            })
         }
     };
     let row_bytes = width * channels * (bits as usize / 8);
@@ -110,8 +146,8 @@ fn read_png(path: &Path) -> Result<Image, String> {
     })
 }
 
-fn write_png(path: &Path, image: &Image) -> Result<(), String> {
-    let file = File::create(path).map_err(|e| err(path, e))?;
+fn write_png(path: &Path, image: &Image) -> Result<()> {
+    let file = File::create(path).map_err(|e| FormatError::io(path, e))?;
     let mut encoder = png::Encoder::new(
         BufWriter::new(file),
         image.width as u32,
@@ -127,10 +163,12 @@ fn write_png(path: &Path, image: &Image) -> Result<(), String> {
     } else {
         png::BitDepth::Sixteen
     });
-    let mut writer = encoder.write_header().map_err(|e| err(path, e))?;
+    let mut writer = encoder
+        .write_header()
+        .map_err(|e| FormatError::PngEncode(e).in_file(path))?;
     writer
         .write_image_data(&to_bytes(image))
-        .map_err(|e| err(path, e))
+        .map_err(|e| FormatError::PngEncode(e).in_file(path))
 }
 
 fn to_bytes(image: &Image) -> Vec<u8> {
@@ -141,11 +179,11 @@ fn to_bytes(image: &Image) -> Vec<u8> {
     }
 }
 
-fn read_pnm(path: &Path) -> Result<Image, String> {
+fn read_pnm(path: &Path) -> Result<Image> {
     let mut bytes = Vec::new();
     File::open(path)
         .and_then(|mut f| f.read_to_end(&mut bytes))
-        .map_err(|e| err(path, e))?;
+        .map_err(|e| FormatError::io(path, e))?;
     // Header: magic, width, height, maxval, separated by whitespace (and # comments), then one
     // whitespace byte before the samples.
     let mut fields = Vec::new();
@@ -165,7 +203,10 @@ fn read_pnm(path: &Path) -> Result<Image, String> {
             i += 1;
         }
         if start == i {
-            return Err(err(path, "truncated PGM/PPM header"));
+            return Err(FormatError::NotFormat {
+                format: "PGM/PPM",
+                reason: "truncated header",
+            });
         }
         fields.push(String::from_utf8_lossy(&bytes[start..i]).to_string());
     }
@@ -173,15 +214,19 @@ fn read_pnm(path: &Path) -> Result<Image, String> {
         "P5" => 1,
         "P6" => 3,
         other => {
-            return Err(err(
-                path,
-                format!("{other:?}: only binary PGM (P5) and PPM (P6) are read"),
-            ))
+            return Err(FormatError::Unsupported {
+                field: "PNM magic",
+                value: format!("{other:?}"),
+                supported: "only binary PGM (P5) and PPM (P6) are read",
+            })
         }
     };
-    let number = |s: &str, what: &str| {
-        s.parse::<usize>()
-            .map_err(|_| err(path, format!("bad {what} {s:?} in header")))
+    let number = |s: &str, what: &'static str| {
+        s.parse::<usize>().map_err(|_| FormatError::OutOfRange {
+            field: what,
+            value: format!("{s:?}"),
+            allowed: "a whole number".into(),
+        })
     };
     let (width, height, maxval) = (
         number(&fields[1], "width")?,
@@ -189,26 +234,29 @@ fn read_pnm(path: &Path) -> Result<Image, String> {
         number(&fields[3], "maxval")?,
     );
     if width == 0 || height == 0 || maxval == 0 || maxval > 65535 {
-        return Err(err(
-            path,
-            "width and height must be >= 1 and maxval 1..=65535",
-        ));
+        return Err(FormatError::OutOfRange {
+            field: "PGM/PPM width, height, maxval",
+            value: format!("{width}, {height}, {maxval}"),
+            allowed: ">= 1, >= 1, 1..=65535".into(),
+        });
     }
     let bits = if maxval < 256 { 8 } else { 16 };
-    let samples = &bytes[(i + 1).min(bytes.len())..];
+    let start = (i + 1).min(bytes.len());
+    let samples = &bytes[start..];
     let count = width
         .checked_mul(height)
         .and_then(|n| n.checked_mul(channels))
-        .ok_or_else(|| err(path, "image too large"))?;
+        .ok_or(FormatError::OutOfRange {
+            field: "PGM/PPM size",
+            value: format!("{width} x {height}"),
+            allowed: "what fits in memory".into(),
+        })?;
     let need = count * (bits as usize / 8);
     if samples.len() < need {
-        return Err(err(
-            path,
-            format!(
-                "truncated: {need} bytes of samples expected, {} present",
-                samples.len()
-            ),
-        ));
+        return Err(FormatError::Truncated {
+            offset: start,
+            len: need,
+        });
     }
     let data = if bits == 8 {
         samples[..count].iter().map(|b| *b as u16).collect()
@@ -227,11 +275,12 @@ fn read_pnm(path: &Path) -> Result<Image, String> {
     })
 }
 
-fn write_pnm(path: &Path, image: &Image) -> Result<(), String> {
+fn write_pnm(path: &Path, image: &Image) -> Result<()> {
     let magic = if image.channels == 1 { "P5" } else { "P6" };
     let maxval = if image.bits == 8 { 255 } else { 65535 };
-    let mut w = BufWriter::new(File::create(path).map_err(|e| err(path, e))?);
-    write!(w, "{magic}\n{} {}\n{maxval}\n", image.width, image.height).map_err(|e| err(path, e))?;
-    w.write_all(&to_bytes(image)).map_err(|e| err(path, e))?;
-    w.flush().map_err(|e| err(path, e))
+    let io = |e| FormatError::io(path, e);
+    let mut w = BufWriter::new(File::create(path).map_err(io)?);
+    write!(w, "{magic}\n{} {}\n{maxval}\n", image.width, image.height).map_err(io)?;
+    w.write_all(&to_bytes(image)).map_err(io)?;
+    w.flush().map_err(io)
 }

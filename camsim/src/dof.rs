@@ -4,15 +4,12 @@
 use optics_core::dof::{depth_of_field, depth_of_field_approx};
 use optics_core::lens::{lateral_magnification, sensor_distance_for_focus};
 use optics_core::Distance;
-use serde_json::{json, Value};
-
-use crate::cli_args::{number, number_or_infinity, ArgError};
 
 /// Smallest f-number accepted (the fastest lenses made are around f/0.7; 0.5 is the thin-lens
 /// limit of an aperture as wide as twice the focal length).
 pub const MIN_F_NUMBER: f64 = 0.5;
 
-/// Checked inputs of the calculator, in millimetres.
+/// Inputs of the calculator, in millimetres (the command line checks them as it parses).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DofInput {
     /// Focal length, > 0.
@@ -25,37 +22,8 @@ pub struct DofInput {
     pub focus_mm: f64,
 }
 
-impl DofInput {
-    /// Parses and checks the four values as given on the command line.
-    pub fn parse(
-        focal_length: &str,
-        f_number: &str,
-        coc: &str,
-        focus: &str,
-    ) -> Result<Self, ArgError> {
-        let focal_length_mm = number(
-            "--focal-length-mm",
-            focal_length,
-            "a number > 0 (millimetres)",
-            |x| x > 0.0,
-        )?;
-        let f_number = number("--f-number", f_number, "a number >= 0.5", |x| {
-            x >= MIN_F_NUMBER
-        })?;
-        let coc_mm = number("--coc-mm", coc, "a number > 0 (millimetres)", |x| x > 0.0)?;
-        let allowed = format!("a number > the focal length ({focal_length_mm} mm), or inf");
-        let focus_mm = number_or_infinity("--focus-mm", focus, &allowed, |x| x > focal_length_mm)?;
-        Ok(Self {
-            focal_length_mm,
-            f_number,
-            coc_mm,
-            focus_mm,
-        })
-    }
-}
-
-/// The calculator's results; `None` stands for infinity.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// The calculator's results; `None` stands for infinity (`null` in JSON).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct DofReport {
     /// Hyperfocal distance.
     pub hyperfocal_mm: f64,
@@ -73,7 +41,7 @@ pub struct DofReport {
     pub magnification: f64,
 }
 
-/// Computes the report. Inputs from [`DofInput::parse`] always succeed; others may be refused.
+/// Computes the report; inputs outside the documented ranges may be refused.
 pub fn compute(input: &DofInput) -> Result<DofReport, optics_core::OpticsError> {
     let DofInput {
         focal_length_mm: f,
@@ -104,19 +72,6 @@ pub fn compute(input: &DofInput) -> Result<DofReport, optics_core::OpticsError> 
 }
 
 impl DofReport {
-    /// One JSON object with the keys of the command's documentation; infinity is `null`.
-    pub fn to_json(&self) -> Value {
-        json!({
-            "hyperfocal_mm": self.hyperfocal_mm,
-            "near_mm": self.near_mm,
-            "far_mm": self.far_mm,
-            "dof_mm": self.dof_mm,
-            "dof_approx_mm": self.dof_approx_mm,
-            "image_distance_mm": self.image_distance_mm,
-            "magnification": self.magnification,
-        })
-    }
-
     /// A readable table.
     pub fn to_table(&self, input: &DofInput) -> String {
         let mm = |x: Option<f64>| x.map_or("infinity".to_string(), |v| format!("{v:.3} mm"));

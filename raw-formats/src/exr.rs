@@ -8,6 +8,8 @@
 use std::io::Write;
 use std::path::Path;
 
+use crate::error::{FormatError, Result};
+
 fn attribute(out: &mut Vec<u8>, name: &str, kind: &str, value: &[u8]) {
     out.extend_from_slice(name.as_bytes());
     out.push(0);
@@ -19,19 +21,30 @@ fn attribute(out: &mut Vec<u8>, name: &str, kind: &str, value: &[u8]) {
 
 /// Encodes a `width` x `height` image whose named channels are given as planes of
 /// `width * height` samples each, row-major from the top.
-pub fn encode(width: usize, height: usize, channels: &[(&str, &[f32])]) -> Result<Vec<u8>, String> {
+pub fn encode(width: usize, height: usize, channels: &[(&str, &[f32])]) -> Result<Vec<u8>> {
     if width == 0 || height == 0 || width > i32::MAX as usize || height > i32::MAX as usize {
-        return Err(format!("EXR: bad size {width} x {height}"));
+        return Err(FormatError::OutOfRange {
+            field: "EXR size",
+            value: format!("{width} x {height}"),
+            allowed: format!("1..={} on each side", i32::MAX),
+        });
     }
     let mut sorted: Vec<&(&str, &[f32])> = channels.iter().collect();
     sorted.sort_by(|a, b| a.0.cmp(b.0));
     for (name, plane) in &sorted {
-        if plane.len() != width * height || name.is_empty() || name.contains('\0') {
-            return Err(format!(
-                "EXR: channel {name:?} has {} samples, expected {}",
-                plane.len(),
-                width * height
-            ));
+        if name.is_empty() || name.contains('\0') {
+            return Err(FormatError::Unsupported {
+                field: "EXR channel name",
+                value: format!("{name:?}"),
+                supported: "a non-empty name without NUL",
+            });
+        }
+        if plane.len() != width * height {
+            return Err(FormatError::SizeMismatch {
+                what: "EXR channel samples",
+                found: plane.len(),
+                expected: width * height,
+            });
         }
     }
     let mut out = Vec::with_capacity(width * height * 4 * sorted.len() + 1024);
@@ -88,19 +101,20 @@ pub fn encode(width: usize, height: usize, channels: &[(&str, &[f32])]) -> Resul
 }
 
 /// Writes interleaved linear RGB (`3 * width * height` values) as an EXR with channels R, G, B.
-pub fn write_rgb(path: &Path, width: usize, height: usize, rgb: &[f32]) -> Result<(), String> {
+pub fn write_rgb(path: &Path, width: usize, height: usize, rgb: &[f32]) -> Result<()> {
     if rgb.len() != 3 * width * height {
-        return Err(format!(
-            "{}: expected {} RGB values, got {}",
-            path.display(),
-            3 * width * height,
-            rgb.len()
-        ));
+        return Err(FormatError::SizeMismatch {
+            what: "RGB values",
+            found: rgb.len(),
+            expected: 3 * width * height,
+        }
+        .in_file(path));
     }
     let plane = |c: usize| -> Vec<f32> { rgb.iter().skip(c).step_by(3).copied().collect() };
     let (r, g, b) = (plane(0), plane(1), plane(2));
-    let bytes = encode(width, height, &[("R", &r), ("G", &g), ("B", &b)])?;
+    let bytes =
+        encode(width, height, &[("R", &r), ("G", &g), ("B", &b)]).map_err(|e| e.in_file(path))?;
     std::fs::File::create(path)
         .and_then(|mut f| f.write_all(&bytes))
-        .map_err(|e| format!("{}: {e}", path.display()))
+        .map_err(|e| FormatError::io(path, e))
 }

@@ -3,7 +3,7 @@
 mod common;
 use common::camsim;
 
-use host_tracer::imageio::{self, Image};
+use raw_formats::image::{self as imageio, Image};
 
 #[test]
 fn isp_writes_an_srgb_image_and_reports_stages_and_times() {

@@ -16,136 +16,136 @@
 //!
 //! The truth is scaled to the ISP's output: the scene's linear sRGB times the factor that makes
 //! a neutral under the scene illuminant come out of a perfect ISP at the same level.
+//!
+//! This is library code: it reports each step through a callback and returns the report; the
+//! command line prints.
 
 use std::path::PathBuf;
 use std::time::Instant;
 
-use clap::Args;
+use host_tracer::calibrate;
+use host_tracer::sensor::{self, LensGeometry, Response, SensorConfig};
+use host_tracer::spectra::{bands_xyz, illuminant_bands};
+use host_tracer::tracer::render::{render_with_progress, RenderProgress, RenderSettings};
+use host_tracer::tracer::scene::SceneDesc;
+use host_tracer::tracer::scene_file;
 use isp_core::ccm::Calibration;
-use isp_core::colour::{self, Mat3};
+use isp_core::colour;
+use isp_core::demosaic::Method;
 use isp_core::dpc::{Defect, DpcConfig};
-use isp_core::frame::RawFrame;
 use isp_core::lsc::LensShading;
+use isp_core::metrics::{angular_error_deg, mean_max, psnr};
 use isp_core::pipeline::IspConfig;
-use isp_core::wb;
-use isp_core::CfaPattern;
+use isp_core::wb::{self, AwbMethod};
+use raw_formats::calibration::{CalibrationEntry, CalibrationFile};
+use raw_formats::dng::{ColourCalibration, Dng, DngColour, Illuminant};
+use raw_formats::{exr, Image};
 
-use crate::calibrate::{self, CalibrationFile};
-use crate::dng::{Dng, Illuminant};
-use crate::exr;
-use crate::imageio::{self, Image};
-use crate::isp_cmd::{self, neutral_cct};
-use crate::sensor::{self, LensGeometry, Response, SensorConfig};
-use crate::tracer::render::{render, RenderSettings};
-use crate::tracer::scene::SceneDesc;
-use crate::tracer::scene_file;
+use crate::develop;
+use crate::error::Error;
 
-/// Options of `camsim demo`.
-#[derive(Args, Debug, Clone)]
-pub struct DemoArgs {
+/// Which sensor preset the demo simulates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SensorPreset {
+    /// [`SensorConfig::realistic`]: noise, shading and defects on.
+    Realistic,
+    /// [`SensorConfig::ideal`]: all off.
+    Ideal,
+}
+
+impl SensorPreset {
+    /// The name the command line and the report use.
+    pub fn name(self) -> &'static str {
+        match self {
+            SensorPreset::Realistic => "realistic",
+            SensorPreset::Ideal => "ideal",
+        }
+    }
+}
+
+/// What `camsim demo` runs; [`DemoSettings::default`] is its defaults.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DemoSettings {
     /// Scene: a built-in name (demo, cornell-box) or a TOML file.
-    #[arg(long, default_value = "demo")]
     pub scene: String,
     /// Output folder (created if missing).
-    #[arg(long, default_value = "camsim-demo")]
     pub output: PathBuf,
     /// Camera response: nikon-5100, canon-eos-5d-mark-ii, sigma-sdmerill or cie1931.
-    #[arg(long, default_value = "nikon-5100")]
     pub camera: String,
-    /// Sensor preset: realistic (noise, shading, defects on) or ideal (all off).
-    #[arg(long, default_value = "realistic")]
-    pub sensor: String,
+    /// Sensor preset.
+    pub sensor: SensorPreset,
     /// The scene's illuminant (for the truth's scale and the AWB error): A, D50, D65, FL2, ...
-    #[arg(long, default_value = "D65")]
     pub illuminant: String,
-    /// Calibration file from `camsim calibrate` [default: calibrate under A and D65 now].
-    #[arg(long)]
+    /// Calibration file from `camsim calibrate`; `None`: calibrate under A and D65 now.
     pub calibration: Option<PathBuf>,
-    /// Image width [default: the scene's].
-    #[arg(long)]
+    /// Image width; `None`: the scene's.
     pub width: Option<u32>,
-    /// Image height [default: the scene's].
-    #[arg(long)]
+    /// Image height; `None`: the scene's.
     pub height: Option<u32>,
-    /// Samples per pixel [default: the scene's].
-    #[arg(long)]
+    /// Samples per pixel; `None`: the scene's.
     pub spp: Option<u32>,
     /// Render threads; 0 uses every core.
-    #[arg(long, default_value_t = 0)]
     pub threads: usize,
     /// Seed of the render and the sensor's noise.
-    #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// ISO (analog gain; 100 is the base).
-    #[arg(long, default_value_t = 100.0)]
     pub iso: f64,
-    /// Exposure time in seconds [default: automatic].
-    #[arg(long)]
+    /// Exposure time in seconds; `None`: automatic.
     pub exposure: Option<f64>,
     /// ADC bits, 8..=16.
-    #[arg(long, default_value_t = 12)]
     pub bits: u8,
-    /// CFA pattern: RGGB, BGGR, GRBG or GBRG.
-    #[arg(long, default_value = "RGGB")]
-    pub pattern: String,
-    /// AWB method: grey-world, white-patch, shades-of-grey or grey-edge.
-    #[arg(long, default_value = "white-patch")]
-    pub awb: String,
-    /// Demosaicing: nearest, bilinear or mhc.
-    #[arg(long, default_value = "mhc")]
-    pub demosaic: String,
-    /// Print the JSON report instead of the readable one.
-    #[arg(long)]
-    pub json: bool,
+    /// CFA pattern.
+    pub pattern: isp_core::CfaPattern,
+    /// AWB method.
+    pub awb: AwbMethod,
+    /// Demosaicing method (one the pipeline runs).
+    pub demosaic: Method,
 }
 
-/// Options of `camsim calibrate`.
-#[derive(Args, Debug, Clone)]
-pub struct CalibrateArgs {
-    /// Camera: nikon-5100, canon-eos-5d-mark-ii, sigma-sdmerill or cie1931.
-    #[arg(long, default_value = "nikon-5100")]
-    pub camera: String,
-    /// Illuminant(s), comma-separated, at most two (the DNG's ColorMatrix1/2): A, D50, D65, ...
-    #[arg(long, default_value = "A,D65")]
-    pub illuminant: String,
-    /// Where to write the calibration (TOML) [default: CAMERA-calibration.toml].
-    #[arg(long)]
-    pub output: Option<PathBuf>,
+impl Default for DemoSettings {
+    fn default() -> Self {
+        Self {
+            scene: "demo".into(),
+            output: "camsim-demo".into(),
+            camera: "nikon-5100".into(),
+            sensor: SensorPreset::Realistic,
+            illuminant: "D65".into(),
+            calibration: None,
+            width: None,
+            height: None,
+            spp: None,
+            threads: 0,
+            seed: 1,
+            iso: 100.0,
+            exposure: None,
+            bits: 12,
+            pattern: isp_core::CfaPattern::Rggb,
+            awb: AwbMethod::WhitePatch { percentile: 99.0 },
+            demosaic: Method::Mhc,
+        }
+    }
 }
 
-/// Runs `camsim calibrate`; returns the report.
-pub fn run_calibrate(args: &CalibrateArgs) -> Result<String, String> {
-    let illuminants: Vec<&str> = args.illuminant.split(',').map(str::trim).collect();
-    if illuminants.is_empty() || illuminants.len() > 2 {
-        return Err(format!(
-            "--illuminant: give one or two illuminants, comma-separated (got {:?})",
-            args.illuminant
-        ));
-    }
-    let mut results = Vec::new();
-    let mut text = String::new();
-    for name in &illuminants {
-        let c = calibrate::calibrate(&args.camera, name)?;
-        text += &calibrate::report_text(&args.camera, &c);
-        results.push(c);
-    }
-    if results.len() == 2 && (results[0].cct_k - results[1].cct_k).abs() < 1.0 {
-        return Err("--illuminant: the two illuminants must differ in colour temperature".into());
-    }
-    let out = args
-        .output
-        .clone()
-        .unwrap_or_else(|| PathBuf::from(format!("{}-calibration.toml", args.camera)));
-    std::fs::write(&out, calibrate::to_toml(&args.camera, &results))
-        .map_err(|e| format!("{}: {e}", out.display()))?;
-    text += &format!(
-        "wrote {} (use it with camsim isp --calibration or camsim demo --calibration)\n",
-        out.display()
-    );
-    Ok(text)
+/// Where the demo is, for progress reports.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum DemoProgress<'a> {
+    /// Step `n` of [`DemoProgress::STEPS`] starts, doing `what`.
+    Step {
+        /// 1-based.
+        n: usize,
+        /// What it does.
+        what: &'a str,
+    },
+    /// The render (step 1) has finished this much.
+    Render(RenderProgress),
 }
 
-/// The demo's measurements, as the JSON report holds them.
+impl DemoProgress<'_> {
+    /// Steps in all.
+    pub const STEPS: usize = 6;
+}
+
+/// The demo's measurements, serialised as `report.json` holds them.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct DemoReport {
     /// Scene name.
@@ -166,9 +166,11 @@ pub struct DemoReport {
     pub sensor_s: f64,
     /// Exposure time used, s.
     pub exposure_s: f64,
-    /// ISP stage times (float path), ms, in pipeline order.
+    /// ISP stage times (float path), ms, in pipeline order (a JSON object).
+    #[serde(serialize_with = "stage_map")]
     pub isp_stage_ms: Vec<(String, f64)>,
     /// ISP stage times (fixed path), ms.
+    #[serde(serialize_with = "stage_map")]
     pub isp_fixed_stage_ms: Vec<(String, f64)>,
     /// Whole ISP, float path, ms.
     pub isp_total_ms: f64,
@@ -190,68 +192,53 @@ pub struct DemoReport {
     pub files: Vec<String>,
 }
 
-fn step(n: usize, what: &str) {
-    eprintln!("[{n}/6] {what}");
+fn stage_map<S: serde::Serializer>(stages: &[(String, f64)], s: S) -> Result<S::Ok, S::Error> {
+    s.collect_map(stages.iter().map(|(name, ms)| (name, ms)))
 }
 
-fn parse_pattern(text: &str) -> Result<CfaPattern, String> {
-    crate::isp_options::pattern(text, "--pattern")
-}
-
-/// The calibration to use: from a file, or fitted now under A and D65.
-fn calibration_for(args: &DemoArgs) -> Result<(Vec<(Illuminant, Mat3)>, Calibration), String> {
-    let entries: Vec<(String, f64, Mat3)> = match &args.calibration {
+/// The calibration to use, from a file or fitted now under A and D65: the DNG's colour tags
+/// and isp-core's calibration.
+fn calibration_for(settings: &DemoSettings) -> Result<(DngColour, Calibration), Error> {
+    let file = match &settings.calibration {
         Some(path) => {
             let file = CalibrationFile::read(path)?;
-            if file.camera != args.camera {
-                return Err(format!(
-                    "{}: calibrated for {}, but --camera is {}",
-                    path.display(),
-                    file.camera,
-                    args.camera
-                ));
+            if file.camera != settings.camera {
+                return Err(Error::Option {
+                    option: "--calibration",
+                    value: format!("{} (calibrated for {})", path.display(), file.camera),
+                    allowed: format!("a calibration of --camera {}", settings.camera),
+                });
             }
-            file.entries
+            file
         }
-        None => ["A", "D65"]
-            .iter()
-            .map(|i| {
-                calibrate::calibrate(&args.camera, i)
-                    .map(|c| (c.illuminant, c.cct_k, c.camera_to_xyz))
-            })
-            .collect::<Result<_, _>>()?,
-    };
-    let file = CalibrationFile {
-        camera: args.camera.clone(),
-        entries: entries.clone(),
+        None => CalibrationFile {
+            camera: settings.camera.clone(),
+            entries: ["A", "D65"]
+                .iter()
+                .map(|i| {
+                    calibrate::calibrate(&settings.camera, i).map(|c| CalibrationEntry {
+                        illuminant: c.illuminant,
+                        cct_k: c.cct_k,
+                        camera_to_xyz: c.camera_to_xyz,
+                        delta_e_2000_mean: None,
+                        delta_e_2000_max: None,
+                    })
+                })
+                .collect::<Result<_, _>>()?,
+        },
     };
     let isp = file.to_isp()?;
-    // DNG's ColorMatrix: XYZ to camera, scaled so the illuminant's white has a largest
-    // camera channel of 1 (Adobe's convention).
-    let mut dng = Vec::new();
-    for (name, _, m) in &entries {
-        let illuminant = Illuminant::from_name(name).unwrap_or(Illuminant::Other(0));
-        let xyz_to_camera = colour::mat3_inverse(m).map_err(|e| e.to_string())?;
-        let white = calibrate::bands_xyz(&calibrate::illuminant_bands(name)?);
-        let cam = colour::mat3_mul_vec(&xyz_to_camera, white);
-        let peak = cam.iter().copied().fold(0.0, f64::max);
-        let scaled = xyz_to_camera.map(|r| r.map(|v| v / peak.max(1e-12)));
-        dng.push((illuminant, scaled));
+    let mut dng = DngColour::default();
+    for e in &file.entries {
+        let illuminant = Illuminant::from_name(&e.illuminant).unwrap_or(Illuminant::Other(0));
+        let white = bands_xyz(&illuminant_bands(&e.illuminant)?);
+        dng.calibrations.push(ColourCalibration::from_camera_to_xyz(
+            illuminant,
+            &e.camera_to_xyz,
+            white,
+        )?);
     }
     Ok((dng, isp))
-}
-
-fn psnr_u8(a: &[u16], b: &[u16]) -> f64 {
-    let mse = a
-        .iter()
-        .zip(b)
-        .map(|(x, y)| {
-            let d = *x as f64 - *y as f64;
-            d * d
-        })
-        .sum::<f64>()
-        / a.len().max(1) as f64;
-    10.0 * (255.0 * 255.0 / mse.max(1e-12)).log10()
 }
 
 /// Centres of the ColorChecker patches (materials `patch01`..`patch24`) in pixels, projected
@@ -321,35 +308,41 @@ fn mean_linear(
     Some(sum.map(|v| v / n))
 }
 
-fn angle_deg(a: [f64; 3], b: [f64; 3]) -> f64 {
-    let dot: f64 = (0..3).map(|i| a[i] * b[i]).sum();
-    let na = a.iter().map(|v| v * v).sum::<f64>().sqrt();
-    let nb = b.iter().map(|v| v * v).sum::<f64>().sqrt();
-    (dot / (na * nb)).clamp(-1.0, 1.0).acos().to_degrees()
+/// What the demo produced: the report, as text and as JSON (both also written to the folder).
+#[derive(Debug, Clone)]
+pub struct DemoOutcome {
+    /// The measurements.
+    pub report: DemoReport,
+    /// `report.txt`.
+    pub text: String,
+    /// `report.json`.
+    pub json: String,
 }
 
-/// Runs `camsim demo`; returns the report (readable or JSON).
-pub fn run(args: &DemoArgs) -> Result<String, String> {
+/// Runs the demo (see the module docs), reporting each step to `progress`.
+pub fn run(
+    args: &DemoSettings,
+    progress: &(dyn Fn(DemoProgress<'_>) + Sync),
+) -> Result<DemoOutcome, Error> {
     let started = Instant::now();
-    let mut config = match args.sensor.as_str() {
-        "realistic" => SensorConfig::realistic(),
-        "ideal" => SensorConfig::ideal(),
-        other => {
-            return Err(format!(
-                "--sensor: unknown preset {other:?}; expected realistic or ideal"
-            ))
-        }
+    let step = |n: usize, what: &str| progress(DemoProgress::Step { n, what });
+    let mut config = match args.sensor {
+        SensorPreset::Realistic => SensorConfig::realistic(),
+        SensorPreset::Ideal => SensorConfig::ideal(),
     };
     config.camera = args.camera.clone();
-    config.pattern = parse_pattern(&args.pattern)?;
+    config.pattern = args.pattern;
     config.adc_bits = args.bits;
     config.iso = args.iso;
     config.exposure_s = args.exposure;
     config.frame_seed = args.seed;
-    config.validate().map_err(|e| e.replace("sensor ", "--"))?;
-    let awb_method = crate::isp_options::awb(&args.awb, "--awb")?;
-    let demosaic = crate::isp_options::demosaic(&args.demosaic, "--demosaic")?;
-    std::fs::create_dir_all(&args.output).map_err(|e| format!("{}: {e}", args.output.display()))?;
+    // The sensor names its fields ("sensor adc_bits: ..."); here they are flags.
+    config
+        .validate()
+        .map_err(|e| Error::Message(e.replace("sensor ", "--")))?;
+    let (awb_method, demosaic) = (args.awb, args.demosaic);
+    std::fs::create_dir_all(&args.output)
+        .map_err(|e| raw_formats::FormatError::io(&args.output, e))?;
     let out = |name: &str| args.output.join(name);
 
     // 1. Render.
@@ -367,7 +360,7 @@ pub fn run(args: &DemoArgs) -> Result<String, String> {
             scene.name, settings.width, settings.height, settings.spp
         ),
     );
-    let image = render(&scene, &settings)?;
+    let image = render_with_progress(&scene, &settings, &|p| progress(DemoProgress::Render(p)))?;
     let (w, h) = (image.width as usize, image.height as usize);
 
     // 2. Sensor.
@@ -375,84 +368,79 @@ pub fn run(args: &DemoArgs) -> Result<String, String> {
         2,
         &format!(
             "sensor: {} ({}), {}-bit ADC",
-            args.camera, args.sensor, args.bits
+            args.camera,
+            args.sensor.name(),
+            args.bits
         ),
     );
     let sensor_start = Instant::now();
     let response = Response::named(&args.camera)?;
     let spectral = !image.bands.is_empty();
     let camera_rgb = response.camera_rgb(&image.bands, &image.rgb);
-    let lens = LensGeometry::of_camera(&scene.camera, image.width, image.height);
+    let cam = &scene.camera;
+    let sensor_mm = cam.sensor_mm(image.width, image.height);
+    let lens = LensGeometry::thin_lens(
+        cam.focal_length_mm as f64,
+        cam.aperture_radius_mm as f64,
+        [sensor_mm.x as f64, sensor_mm.y as f64],
+    );
     let capture = sensor::capture(&camera_rgb, w, h, lens, &config)?;
     let sensor_s = sensor_start.elapsed().as_secs_f64();
 
     // 3. Calibration and white balance.
     step(3, "colour calibration and white balance");
-    let (dng_matrices, calibration) = if spectral {
+    let (dng_colour, calibration) = if spectral {
         calibration_for(args)?
     } else {
         // The RGB path: camera RGB is linear sRGB.
         let m = colour::LINEAR_SRGB_TO_XYZ;
-        let inv = colour::mat3_inverse(&m).map_err(|e| e.to_string())?;
+        let inv = colour::mat3_inverse(&m)?;
         (
-            vec![(Illuminant::D65, inv)],
-            Calibration::single(6504.0, m).map_err(|e| e.to_string())?,
+            DngColour {
+                calibrations: vec![ColourCalibration::new(Illuminant::D65, inv)],
+                ..DngColour::default()
+            },
+            Calibration::single(6504.0, m)?,
         )
     };
-    let black4 = [capture.black_level; 4];
-    let raw_frame = RawFrame::new(
-        &capture.raw,
-        w,
-        h,
-        w,
-        capture.bits,
-        capture.pattern,
-        black4,
-        capture.white_level,
-    )
-    .map_err(|e| e.to_string())?;
-    let to_xyz = calibration
-        .camera_to_xyz(6504.0)
-        .map_err(|e| e.to_string())?;
-    let mut awb = wb::estimate(&raw_frame, awb_method, &to_xyz).map_err(|e| e.to_string())?;
-    awb.cct_k = neutral_cct(&calibration, awb.neutral)?;
+    let raw_frame = capture.raw.frame()?;
+    let to_xyz = calibration.camera_to_xyz(6504.0)?;
+    let mut awb = wb::estimate(&raw_frame, awb_method, &to_xyz)?;
+    awb.cct_k = calibration.cct_of_neutral(awb.neutral)?;
     let (_, true_neutral) = if spectral {
         calibrate::illuminant_colour(&args.illuminant, &response)?
     } else {
         ([0.0; 3], [1.0; 3])
     };
-    let awb_angular_error_deg = angle_deg(awb.neutral.map(|v| v as f64), true_neutral);
+    let awb_angular_error_deg = angular_error_deg(awb.neutral.map(|v| v as f64), true_neutral);
 
     // 4. Files: DNG, plain mosaic, truth.
     step(4, "writing raw.dng, raw.png and the ground truth");
     let dng = Dng {
-        width: w,
-        height: h,
-        pattern: capture.pattern,
-        black_level: black4,
-        white_level: capture.white_level,
-        raw: capture.raw.clone(),
+        image: capture.raw.clone(),
         camera_model: format!("camsim {}", response.name()),
-        calibrations: dng_matrices,
-        as_shot_neutral: Some(awb.neutral.map(|v| v as f64)),
+        colour: DngColour {
+            as_shot_neutral: Some(awb.neutral.map(|v| v as f64)),
+            ..dng_colour
+        },
     };
     dng.write(&out("raw.dng"))?;
-    imageio::write(
+    raw_formats::image::write(
         &out("raw.png"),
         &Image {
             width: w,
             height: h,
             channels: 1,
             bits: 16,
-            data: capture.raw.clone(),
+            data: capture.raw.samples.clone(),
         },
     )?;
     // The truth's scale: a neutral under the scene illuminant with camera green g (in ISP
     // units) comes out of a perfect ISP with luminance g.
     let green_per_luminance = if spectral {
-        let bands = calibrate::illuminant_bands(&args.illuminant)
-            .map_err(|e| format!("--illuminant: {e}"))?;
-        response.of_bands(&bands)[1] as f64 / calibrate::bands_xyz(&bands)[1]
+        let bands = illuminant_bands(&args.illuminant)
+            .map_err(|e| Error::Message(format!("--illuminant: {e}")))?;
+        response.of_bands(&bands)[1] as f64 / bands_xyz(&bands)[1]
     } else {
         1.0
     };
@@ -468,24 +456,17 @@ pub fn run(args: &DemoArgs) -> Result<String, String> {
     // 5. ISP, read back from the DNG as `camsim isp` would.
     step(5, "ISP: float reference and fixed-point paths");
     let back = Dng::read(&out("raw.dng"))?;
-    if back.raw != capture.raw {
-        return Err("raw.dng did not read back the same samples".into());
+    if back.image != capture.raw {
+        return Err(Error::Message(
+            "raw.dng did not read back the same frame".into(),
+        ));
     }
-    let raw_back = RawFrame::new(
-        &back.raw,
-        w,
-        h,
-        w,
-        capture.bits,
-        back.pattern,
-        back.black_level,
-        back.white_level,
-    )
-    .map_err(|e| e.to_string())?;
+    let raw_back = back.image.frame()?;
     let gains = awb.gains;
     let ccm = calibration
-        .ccm(awb.cct_k, gains)
-        .map_err(|e| format!("colour matrix: {e}"))?;
+        .ccm_for_white_balance(gains)
+        .map_err(|e| Error::in_stage("colour matrix", e))?
+        .ccm;
     let defects: Vec<Defect> = capture
         .defects
         .iter()
@@ -495,7 +476,7 @@ pub fn run(args: &DemoArgs) -> Result<String, String> {
         })
         .collect();
     let grid = if capture.shading.is_active() {
-        Some(capture.shading.correction_grid(17, 13, capture.pattern))
+        Some(capture.shading.correction_grid(17, 13, capture.raw.pattern))
     } else {
         None
     };
@@ -508,22 +489,21 @@ pub fn run(args: &DemoArgs) -> Result<String, String> {
         lsc: grid
             .as_ref()
             .map(|g| LensShading::new(17, 13, g))
-            .transpose()
-            .map_err(|e| e.to_string())?,
+            .transpose()?,
         wb_gains: gains,
         demosaic,
         denoise: if noisy { 0.01 } else { 0.0 },
         ccm,
         ..IspConfig::default()
     };
-    let (float_report, float_rgb) = isp_cmd::execute(&raw_back, &isp_config, false, 8)?;
-    let (fixed_report, fixed_rgb) = isp_cmd::execute(&raw_back, &isp_config, true, 8)?;
+    let (float_report, float_rgb) = develop::execute(&raw_back, &isp_config, false, 8)?;
+    let (fixed_report, fixed_rgb) = develop::execute(&raw_back, &isp_config, true, 8)?;
     let to8 = |img: &Image| Image {
         bits: 8,
         ..img.clone()
     };
-    imageio::write(&out("srgb.png"), &to8(&float_rgb))?;
-    imageio::write(&out("srgb_fixed.png"), &to8(&fixed_rgb))?;
+    raw_formats::image::write(&out("srgb.png"), &to8(&float_rgb))?;
+    raw_formats::image::write(&out("srgb_fixed.png"), &to8(&fixed_rgb))?;
     let truth_img = Image {
         width: w,
         height: h,
@@ -531,14 +511,14 @@ pub fn run(args: &DemoArgs) -> Result<String, String> {
         bits: 8,
         data: truth8.clone(),
     };
-    imageio::write(&out("truth.png"), &truth_img)?;
+    raw_formats::image::write(&out("truth.png"), &truth_img)?;
     let mut side = Vec::with_capacity(w * h * 9);
     for y in 0..h {
         for img in [&truth8, &float_rgb.data, &fixed_rgb.data] {
             side.extend_from_slice(&img[3 * w * y..3 * w * (y + 1)]);
         }
     }
-    imageio::write(
+    raw_formats::image::write(
         &out("comparison.png"),
         &Image {
             width: 3 * w,
@@ -551,9 +531,9 @@ pub fn run(args: &DemoArgs) -> Result<String, String> {
 
     // 6. Measure.
     step(6, "measuring");
-    let psnr_db = psnr_u8(&float_rgb.data, &truth8);
-    let psnr_fixed_db = psnr_u8(&fixed_rgb.data, &truth8);
-    let white = colour::xy_to_xyz(colour::D65_XY).map_err(|e| e.to_string())?;
+    let psnr_db = psnr(&float_rgb.data, &truth8, 255.0);
+    let psnr_fixed_db = psnr(&fixed_rgb.data, &truth8, 255.0);
+    let white = colour::xy_to_xyz(colour::D65_XY)?;
     let mut errors = Vec::new();
     for (_, centre) in patch_centres(&scene, w, h) {
         let (Some(ours), Some(truth)) = (
@@ -567,14 +547,13 @@ pub fn run(args: &DemoArgs) -> Result<String, String> {
                 colour::mat3_mul_vec(&colour::LINEAR_SRGB_TO_XYZ, rgb),
                 white,
             )
-            .map_err(|e| e.to_string())
         };
         errors.push(colour::delta_e_2000(lab(ours)?, lab(truth)?));
     }
     let (delta_e_2000_mean, delta_e_2000_max) = if errors.is_empty() {
         (None, None)
     } else {
-        let (m, x) = calibrate::mean_max(&errors);
+        let (m, x) = mean_max(&errors);
         (Some(m), Some(x))
     };
     let names = [
@@ -592,7 +571,7 @@ pub fn run(args: &DemoArgs) -> Result<String, String> {
     let report = DemoReport {
         scene: scene.name.clone(),
         camera: response.name().to_owned(),
-        sensor: args.sensor.clone(),
+        sensor: args.sensor.name().to_owned(),
         width: w,
         height: h,
         spp: settings.spp,
@@ -625,42 +604,14 @@ pub fn run(args: &DemoArgs) -> Result<String, String> {
         started.elapsed().as_secs_f64(),
         &float_report.stages,
     );
-    std::fs::write(out("report.json"), &json).map_err(|e| e.to_string())?;
-    std::fs::write(out("report.txt"), &text).map_err(|e| e.to_string())?;
-    Ok(if args.json { json } else { text })
+    for (name, text) in [("report.json", &json), ("report.txt", &text)] {
+        std::fs::write(out(name), text).map_err(|e| raw_formats::FormatError::io(out(name), e))?;
+    }
+    Ok(DemoOutcome { report, text, json })
 }
 
 fn report_json(r: &DemoReport) -> String {
-    let stages = |v: &[(String, f64)]| {
-        serde_json::Value::Object(
-            v.iter()
-                .map(|(n, ms)| (n.clone(), serde_json::json!(ms)))
-                .collect(),
-        )
-    };
-    let value = serde_json::json!({
-        "scene": r.scene,
-        "camera": r.camera,
-        "sensor": r.sensor,
-        "width": r.width,
-        "height": r.height,
-        "spp": r.spp,
-        "render_s": r.render_s,
-        "sensor_s": r.sensor_s,
-        "exposure_s": r.exposure_s,
-        "isp_stage_ms": stages(&r.isp_stage_ms),
-        "isp_fixed_stage_ms": stages(&r.isp_fixed_stage_ms),
-        "isp_total_ms": r.isp_total_ms,
-        "isp_fixed_total_ms": r.isp_fixed_total_ms,
-        "psnr_db": r.psnr_db,
-        "psnr_fixed_db": r.psnr_fixed_db,
-        "delta_e_2000_mean": r.delta_e_2000_mean,
-        "delta_e_2000_max": r.delta_e_2000_max,
-        "awb_angular_error_deg": r.awb_angular_error_deg,
-        "cct_k": r.cct_k,
-        "files": r.files,
-    });
-    serde_json::to_string_pretty(&value).unwrap_or_default() + "\n"
+    serde_json::to_string_pretty(r).unwrap_or_default() + "\n"
 }
 
 fn report_text(r: &DemoReport, total_s: f64, stages: &[&str]) -> String {
@@ -702,15 +653,39 @@ mod tests {
     use super::*;
 
     #[test]
-    fn angles() {
-        assert!(angle_deg([1.0, 0.0, 0.0], [0.0, 1.0, 0.0]) - 90.0 < 1e-9);
-        assert!(angle_deg([1.0, 1.0, 1.0], [2.0, 2.0, 2.0]).abs() < 1e-6);
+    fn defaults_are_the_command_lines() {
+        let d = DemoSettings::default();
+        assert_eq!(d.awb, AwbMethod::from_name("white-patch").unwrap());
+        assert_eq!(d.demosaic, "mhc".parse().unwrap());
+        assert_eq!(d.sensor.name(), "realistic");
     }
 
     #[test]
-    fn method_names_parse() {
-        let _: isp_core::wb::AwbMethod = crate::isp_options::awb("grey-world", "--awb").unwrap();
-        let _: isp_core::demosaic::Method =
-            crate::isp_options::demosaic("mhc", "--demosaic").unwrap();
+    fn the_report_serialises_stage_times_as_an_object() {
+        let report = DemoReport {
+            scene: "s".into(),
+            camera: "c".into(),
+            sensor: "ideal".into(),
+            width: 2,
+            height: 2,
+            spp: 1,
+            render_s: 0.0,
+            sensor_s: 0.0,
+            exposure_s: 0.0,
+            isp_stage_ms: vec![("colour matrix".into(), 1.5)],
+            isp_fixed_stage_ms: vec![],
+            isp_total_ms: 1.0,
+            isp_fixed_total_ms: 1.0,
+            psnr_db: 30.0,
+            psnr_fixed_db: 30.0,
+            delta_e_2000_mean: None,
+            delta_e_2000_max: None,
+            awb_angular_error_deg: 1.0,
+            cct_k: 6500.0,
+            files: vec![],
+        };
+        let v: serde_json::Value = serde_json::from_str(&report_json(&report)).unwrap();
+        assert_eq!(v["isp_stage_ms"]["colour matrix"], 1.5);
+        assert!(v["delta_e_2000_mean"].is_null());
     }
 }

@@ -131,10 +131,12 @@ pub fn pattern(text: &str, what: &str) -> Result<CfaPattern, String> {
         .map_err(|_| format!("{what} must be one of RGGB, BGGR, GRBG, GBRG (got {text:?})"))
 }
 
-/// Parses a demosaicing method name.
+/// Parses the name of a demosaicing method the pipeline runs.
 pub fn demosaic(text: &str, what: &str) -> Result<Method, String> {
     text.parse()
-        .map_err(|_| format!("{what} must be one of nearest, bilinear, mhc (got {text:?})"))
+        .ok()
+        .filter(|m: &Method| m.streams())
+        .ok_or_else(|| format!("{what} must be one of nearest, bilinear, mhc (got {text:?})"))
 }
 
 /// Parses a look name.

@@ -1,65 +1,93 @@
 //! `camsim demosaic` and `camsim bench demosaic`: the isp-core demosaicing methods on files,
 //! and their accuracy (CPSNR on a dataset) against their speed (Mpix/s, single thread).
 
+//! `camsim demosaic` and `camsim bench demosaic`: isp-core's demosaicing methods on whole
+//! files, and their accuracy (CPSNR on a dataset) against their speed (Mpix/s, single thread).
+//! [`Demosaic`] names each way of running one of isp-core's [`Method`]s, and [`Demosaic::run`]
+//! is the one place the AVX2 build of the directional method is chosen at run time.
+
 use std::path::Path;
 use std::time::Instant;
 
 use isp_core::demosaic::directional::{directional, directional_fixed, scratch_len};
-use isp_core::demosaic::{bilinear, mhc, nearest, Border};
-use isp_core::frame::{IntSample, MosaicView, RgbViewMut};
+use isp_core::demosaic::{bilinear, mhc, nearest, Border, Method};
+use isp_core::frame::{IntSample, MosaicView, RgbViewMut, Sample};
+use isp_core::metrics::cpsnr;
 use isp_core::CfaPattern;
-use serde_json::{json, Value};
+use raw_formats::Image;
 
-use crate::imageio::{self, Image};
+use crate::error::Error;
 
-/// A demosaicing method of isp-core.
+/// A demosaic as the command line names it: one of isp-core's methods, with its border rule
+/// and arithmetic (isp-core's [`Method`] is the one list of methods; this says how to run one
+/// on a whole frame).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Method {
-    /// 2x2 superpixel replication.
-    Nearest,
-    /// Bilinear with reflect-101 borders.
-    Bilinear,
-    /// Bilinear with OpenCV's border rule (bit-exact to `cvtColor`).
-    BilinearOpenCv,
-    /// Malvar-He-Cutler 2004.
-    Mhc,
-    /// The high-quality directional method (`isp_core::demosaic::directional`).
-    Directional,
-    /// The same in integer arithmetic (`directional_fixed`), for cores without an FPU.
-    DirectionalFixed,
+pub struct Demosaic {
+    /// The method.
+    pub method: Method,
+    /// The border rule (bilinear offers OpenCV's).
+    pub border: Border,
+    /// The integer version (directional's `directional_fixed`); the others are integer on
+    /// integer samples already.
+    pub integer: bool,
 }
 
-impl Method {
-    /// Every method, cheapest first.
-    pub const ALL: [Method; 6] = [
-        Method::Nearest,
-        Method::Bilinear,
-        Method::BilinearOpenCv,
-        Method::Mhc,
-        Method::Directional,
-        Method::DirectionalFixed,
+impl Demosaic {
+    const fn of(method: Method) -> Self {
+        Self {
+            method,
+            border: Border::Reflect101,
+            integer: false,
+        }
+    }
+
+    /// 2x2 superpixel replication.
+    pub const NEAREST: Self = Self::of(Method::Nearest);
+    /// Bilinear with reflect-101 borders.
+    pub const BILINEAR: Self = Self::of(Method::Bilinear);
+    /// Bilinear with OpenCV's border rule (bit-exact to `cvtColor`).
+    pub const BILINEAR_OPENCV: Self = Self {
+        border: Border::OpenCv,
+        ..Self::BILINEAR
+    };
+    /// Malvar-He-Cutler 2004.
+    pub const MHC: Self = Self::of(Method::Mhc);
+    /// The high-quality directional method (`f32` inside).
+    pub const DIRECTIONAL: Self = Self::of(Method::Directional);
+    /// The same in integer arithmetic, for cores without an FPU.
+    pub const DIRECTIONAL_FIXED: Self = Self {
+        integer: true,
+        ..Self::DIRECTIONAL
+    };
+
+    /// Every variant, cheapest first.
+    pub const ALL: [Demosaic; 6] = [
+        Self::NEAREST,
+        Self::BILINEAR,
+        Self::BILINEAR_OPENCV,
+        Self::MHC,
+        Self::DIRECTIONAL,
+        Self::DIRECTIONAL_FIXED,
     ];
 
     /// The name used on the command line and in reports.
     pub fn name(self) -> &'static str {
-        match self {
-            Method::Nearest => "nearest",
-            Method::Bilinear => "bilinear",
-            Method::BilinearOpenCv => "bilinear-opencv",
-            Method::Mhc => "mhc",
-            Method::Directional => "directional",
-            Method::DirectionalFixed => "directional-fixed",
+        match (self.method, self.border, self.integer) {
+            (Method::Bilinear, Border::OpenCv, _) => "bilinear-opencv",
+            (Method::Directional, _, true) => "directional-fixed",
+            (method, _, _) => method.name(),
         }
     }
 
     /// Parses a name; the error lists the choices.
-    pub fn parse(s: &str) -> Result<Self, String> {
+    pub fn parse(s: &str) -> Result<Self, Error> {
         Self::ALL
             .into_iter()
             .find(|m| m.name() == s)
-            .ok_or_else(|| {
-                let names: Vec<&str> = Self::ALL.iter().map(|m| m.name()).collect();
-                format!("--method must be one of {} (got {s:?})", names.join(", "))
+            .ok_or_else(|| Error::Option {
+                option: "--method",
+                value: format!("{s:?}"),
+                allowed: format!("one of {}", Self::ALL.map(|m| m.name()).join(", ")),
             })
     }
 
@@ -71,41 +99,45 @@ impl Method {
         h: usize,
         p: CfaPattern,
         out: &mut [T],
-    ) -> Result<(), String> {
-        let mosaic = MosaicView::new(data, w, h, w, p).map_err(|e| e.to_string())?;
-        let mut view = RgbViewMut::new(out, w, h, 3 * w).map_err(|e| e.to_string())?;
-        match self {
-            Method::Nearest => nearest(&mosaic, &mut view),
-            Method::Bilinear => bilinear(&mosaic, Border::Reflect101, &mut view),
-            Method::BilinearOpenCv => bilinear(&mosaic, Border::OpenCv, &mut view),
-            Method::Mhc => mhc(&mosaic, &mut view),
-            Method::Directional => {
-                let len =
-                    scratch_len(w).ok_or_else(|| format!("a {w}-pixel-wide frame is too wide"))?;
-                let mut scratch = vec![0f32; len];
-                #[cfg(target_arch = "x86_64")]
-                if std::arch::is_x86_feature_detected!("avx2") {
-                    // SAFETY: the CPU has just been found to support AVX2, the one target
-                    // feature `directional_avx2` is compiled for.
-                    return unsafe {
-                        isp_core::demosaic::directional::directional_avx2(
-                            &mosaic,
-                            &mut view,
-                            &mut scratch,
-                        )
-                    }
-                    .map_err(|e| e.to_string());
-                }
-                directional(&mosaic, &mut view, &mut scratch)
+    ) -> Result<(), Error> {
+        let mosaic = MosaicView::new(data, w, h, w, p)?;
+        let mut view = RgbViewMut::new(out, w, h, 3 * w)?;
+        let scratch = || {
+            scratch_len(w).ok_or(Error::Option {
+                option: "width",
+                value: w.to_string(),
+                allowed: "a width whose scratch fits in memory".into(),
+            })
+        };
+        match (self.method, self.integer) {
+            (Method::Nearest, _) => nearest(&mosaic, &mut view)?,
+            (Method::Bilinear, _) => bilinear(&mosaic, self.border, &mut view)?,
+            (Method::Mhc, _) => mhc(&mosaic, &mut view)?,
+            (Method::Directional, false) => {
+                directional_dispatch(&mosaic, &mut view, &mut vec![0f32; scratch()?])?
             }
-            Method::DirectionalFixed => {
-                let len =
-                    scratch_len(w).ok_or_else(|| format!("a {w}-pixel-wide frame is too wide"))?;
-                directional_fixed(&mosaic, &mut view, &mut vec![0i32; len])
+            (Method::Directional, true) => {
+                directional_fixed(&mosaic, &mut view, &mut vec![0i32; scratch()?])?
             }
         }
-        .map_err(|e| e.to_string())
+        Ok(())
     }
+}
+
+/// The directional method in the fastest build this CPU runs: the AVX2 build where the CPU has
+/// it (bit-identical output), the baseline build otherwise. The one place camsim chooses.
+pub fn directional_dispatch<T: Sample>(
+    mosaic: &MosaicView<'_, T>,
+    out: &mut RgbViewMut<'_, T>,
+    scratch: &mut [f32],
+) -> Result<(), isp_core::IspError> {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has just been found to support AVX2, the one target feature
+        // `directional_avx2` is compiled for.
+        return unsafe { isp_core::demosaic::directional::directional_avx2(mosaic, out, scratch) };
+    }
+    directional(mosaic, out, scratch)
 }
 
 /// Samples an RGB image into a mosaic of pattern `p`, each sample multiplied by `scale`.
@@ -116,44 +148,22 @@ pub fn mosaic_from_rgb(rgb: &Image, p: CfaPattern, scale: u16) -> Vec<u16> {
         .collect()
 }
 
-/// CPSNR in dB of `out` against `truth` (both RGB, same size, samples in `0..=peak`) over the
-/// image minus a `border`-pixel frame: `10 log10(peak^2 / MSE)`, MSE over all three channels.
-pub fn cpsnr(
-    out: &[u16],
-    truth: &[u16],
-    width: usize,
-    height: usize,
-    border: usize,
-    peak: f64,
-) -> f64 {
-    let mut se = 0.0;
-    let mut n = 0usize;
-    for y in border..height.saturating_sub(border) {
-        for x in border..width.saturating_sub(border) {
-            for c in 0..3 {
-                let i = 3 * (y * width + x) + c;
-                let d = out[i] as f64 - truth[i] as f64;
-                se += d * d;
-                n += 1;
-            }
-        }
-    }
-    10.0 * (peak * peak / (se / n as f64)).log10()
-}
-
 /// `camsim demosaic`: one mosaic file in, RGB of the same bit depth out.
 pub fn demosaic_file(
     input: &Path,
     output: &Path,
-    method: Method,
+    method: Demosaic,
     pattern: CfaPattern,
-) -> Result<String, String> {
-    let image = imageio::read(input)?;
+) -> Result<String, Error> {
+    let image = raw_formats::image::read(input)?;
     if image.channels != 1 {
-        return Err(format!(
-            "{}: expected a single-channel mosaic, found {} channels",
-            input.display(),
-            image.channels
+        return Err(Error::Format(
+            raw_formats::FormatError::Unsupported {
+                field: "channel count",
+                value: image.channels.to_string(),
+                supported: "expected a single-channel mosaic",
+            }
+            .in_file(input),
         ));
     }
     let (w, h) = (image.width, image.height);
@@ -168,7 +178,7 @@ pub fn demosaic_file(
         method.run(&image.data, w, h, pattern, &mut out)?;
     }
     let elapsed = start.elapsed();
-    imageio::write(
+    raw_formats::image::write(
         output,
         &Image {
             width: w,
@@ -191,8 +201,8 @@ pub fn demosaic_file(
     ))
 }
 
-/// One method's figures on one dataset.
-#[derive(Debug, Clone, PartialEq)]
+/// One method's figures on one dataset (serialised as they are for `--json`).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct BenchRow {
     /// Method name.
     pub method: &'static str,
@@ -204,21 +214,14 @@ pub struct BenchRow {
     pub mpix_per_s: f64,
 }
 
-impl BenchRow {
-    /// The row as the JSON object of the command's documentation.
-    pub fn to_json(&self) -> Value {
-        json!({ "method": self.method, "bits": self.bits, "cpsnr_db": self.cpsnr_db, "mpix_per_s": self.mpix_per_s })
-    }
-}
-
 fn run_scaled(
-    method: Method,
+    method: Demosaic,
     mosaic: &[u16],
     w: usize,
     h: usize,
     bits: u8,
     out: &mut [u16],
-) -> Result<(), String> {
+) -> Result<(), Error> {
     if bits == 8 {
         let data: Vec<u8> = mosaic.iter().map(|v| *v as u8).collect();
         let mut rgb = vec![0u8; out.len()];
@@ -235,25 +238,36 @@ fn run_scaled(
 pub fn bench(
     dataset: &Path,
     bits: u8,
-    methods: &[Method],
+    methods: &[Demosaic],
     progress: &mut dyn FnMut(&str),
-) -> Result<Vec<BenchRow>, String> {
+) -> Result<Vec<BenchRow>, Error> {
     let mut paths: Vec<_> = std::fs::read_dir(dataset)
-        .map_err(|e| format!("{}: {e}", dataset.display()))?
+        .map_err(|e| raw_formats::FormatError::io(dataset, e))?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")))
         .collect();
     paths.sort();
     if paths.is_empty() {
-        return Err(format!("{}: no .png images", dataset.display()));
+        return Err(Error::Option {
+            option: "--dataset",
+            value: dataset.display().to_string(),
+            allowed: "a folder with .png images".into(),
+        });
     }
     let scale: u16 = if bits == 8 { 1 } else { 257 };
     let peak = if bits == 8 { 255.0 } else { 65535.0 };
     let mut images = Vec::new();
     for path in &paths {
-        let image = imageio::read(path)?;
+        let image = raw_formats::image::read(path)?;
         if image.channels != 3 || image.bits != 8 {
-            return Err(format!("{}: expected 8-bit RGB", path.display()));
+            return Err(Error::Format(
+                raw_formats::FormatError::Unsupported {
+                    field: "image",
+                    value: format!("{} channels, {} bits", image.channels, image.bits),
+                    supported: "8-bit RGB",
+                }
+                .in_file(path),
+            ));
         }
         images.push(image);
     }
@@ -287,7 +301,7 @@ pub fn bench(
 
 /// Single-thread Mpix/s on a 2048x2048 mosaic tiled from `image`: the best of repeated runs
 /// over at least half a second, timing only the demosaic call on buffers made beforehand.
-fn throughput(method: Method, image: &Image, bits: u8) -> Result<f64, String> {
+fn throughput(method: Demosaic, image: &Image, bits: u8) -> Result<f64, Error> {
     let n = 2048;
     let base = mosaic_from_rgb(image, CfaPattern::Rggb, if bits == 8 { 1 } else { 257 });
     // Tile with even offsets so the CFA phase is kept.
@@ -303,7 +317,7 @@ fn throughput(method: Method, image: &Image, bits: u8) -> Result<f64, String> {
     }
 }
 
-fn time_method<T: IntSample>(method: Method, mosaic: &[T], n: usize) -> Result<f64, String> {
+fn time_method<T: IntSample>(method: Demosaic, mosaic: &[T], n: usize) -> Result<f64, Error> {
     let mut out = vec![T::default(); 3 * n * n];
     let mut best = f64::INFINITY;
     let started = Instant::now();

@@ -3,12 +3,14 @@
 
 use std::path::PathBuf;
 
+use camsim::Error;
 use clap::Args;
+use host_tracer::tracer::render::{render_with_progress, RenderSettings, Rendered};
+use host_tracer::tracer::scene::SceneDesc;
+use host_tracer::tracer::scene_file;
+use raw_formats::Image;
 
-use crate::imageio::{self, Image};
-use crate::tracer::render::{render, RenderSettings, Rendered};
-use crate::tracer::scene::SceneDesc;
-use crate::tracer::scene_file;
+use crate::progress::RenderBar;
 
 /// Arguments of `camsim render`.
 #[derive(Args, Debug, Default)]
@@ -58,15 +60,19 @@ pub struct RenderArgs {
     pub json: bool,
 }
 
-fn positive(v: Option<f32>, what: &str) -> Result<Option<f32>, String> {
+fn positive(v: Option<f32>, what: &'static str) -> Result<Option<f32>, Error> {
     match v {
-        Some(x) if !(x.is_finite() && x > 0.0) => Err(format!("{what} must be > 0 (got {x})")),
+        Some(x) if !(x.is_finite() && x > 0.0) => Err(Error::Option {
+            option: what,
+            value: x.to_string(),
+            allowed: "> 0".into(),
+        }),
         v => Ok(v),
     }
 }
 
 /// Applies the command line's overrides to the scene's camera and film.
-pub fn settings(args: &RenderArgs, scene: &mut SceneDesc) -> Result<RenderSettings, String> {
+pub fn settings(args: &RenderArgs, scene: &mut SceneDesc) -> Result<RenderSettings, Error> {
     let cam = &mut scene.camera;
     let radius = positive(args.aperture_radius, "--aperture-radius")?;
     let focus = positive(args.focus_distance, "--focus-distance")?;
@@ -74,21 +80,25 @@ pub fn settings(args: &RenderArgs, scene: &mut SceneDesc) -> Result<RenderSettin
         None => {}
         Some("pinhole") => {
             if radius.is_some() {
-                return Err("--camera pinhole has no aperture: drop --aperture-radius".into());
+                return Err(Error::Message(
+                    "--camera pinhole has no aperture: drop --aperture-radius".into(),
+                ));
             }
             cam.aperture_radius_mm = 0.0;
         }
         Some("thinlens") if radius.is_none() && cam.aperture_radius_mm == 0.0 => {
-            return Err(format!(
+            return Err(Error::Message(format!(
                 "--camera thinlens needs --aperture-radius: scene {:?} is a pinhole",
                 scene.name
-            ));
+            )));
         }
         Some("thinlens") => {}
         Some(other) => {
-            return Err(format!(
-                "--camera must be pinhole or thinlens (got {other:?})"
-            ))
+            return Err(Error::Option {
+                option: "--camera",
+                value: format!("{other:?}"),
+                allowed: "pinhole or thinlens".into(),
+            })
         }
     }
     if let Some(r) = radius {
@@ -104,7 +114,7 @@ pub fn settings(args: &RenderArgs, scene: &mut SceneDesc) -> Result<RenderSettin
     s.path.max_depth = args.max_depth.unwrap_or(s.path.max_depth);
     s.seed = args.seed;
     s.threads = args.threads;
-    let mut table = crate::tracer::scene::MaskTable::default();
+    let mut table = host_tracer::tracer::scene::MaskTable::default();
     scene.camera.rig(s.width, s.height, false, &mut table)?;
     Ok(s)
 }
@@ -145,19 +155,44 @@ pub fn preview(image: &Rendered, exposure: f32) -> Image {
     }
 }
 
+/// `camsim render --json`'s report.
+#[derive(serde::Serialize)]
+struct RenderReport<'a> {
+    scene: &'a str,
+    width: u32,
+    height: u32,
+    spp: u32,
+    max_depth: u32,
+    seed: u64,
+    threads: usize,
+    camera: &'a str,
+    mode: &'a str,
+    render_s: f64,
+    prepare_s: f64,
+    samples_per_s: f64,
+    mean_rgb: [f64; 3],
+}
+
 /// Runs `camsim render`.
-pub fn run(args: &RenderArgs) -> Result<String, String> {
+pub fn run(args: &RenderArgs) -> Result<String, Error> {
     if args.linear.is_none() && args.preview.is_none() {
-        return Err("nothing to write: give --linear out.exr and/or --preview out.png".into());
+        return Err(Error::Message(
+            "nothing to write: give --linear out.exr and/or --preview out.png".into(),
+        ));
     }
     if let Some(e) = args.exposure.filter(|e| !e.is_finite()) {
-        return Err(format!("--exposure must be finite (got {e})"));
+        return Err(Error::Option {
+            option: "--exposure",
+            value: e.to_string(),
+            allowed: "finite".into(),
+        });
     }
     let mut scene = scene_file::load(&args.scene)?;
     let settings = settings(args, &mut scene)?;
-    let image = render(&scene, &settings)?;
+    let bar = RenderBar::new();
+    let image = bar.during(|bar| render_with_progress(&scene, &settings, &|p| bar.update(p)))?;
     if let Some(path) = &args.linear {
-        crate::exr::write_rgb(
+        raw_formats::exr::write_rgb(
             path,
             image.width as usize,
             image.height as usize,
@@ -166,7 +201,7 @@ pub fn run(args: &RenderArgs) -> Result<String, String> {
     }
     if let Some(path) = &args.preview {
         let exposure = args.exposure.unwrap_or_else(|| auto_exposure(&image));
-        imageio::write(path, &preview(&image, exposure))?;
+        raw_formats::image::write(path, &preview(&image, exposure))?;
     }
     let mut mean = [0.0f64; 3];
     for px in image.rgb.chunks_exact(3) {
@@ -187,22 +222,24 @@ pub fn run(args: &RenderArgs) -> Result<String, String> {
         "pinhole"
     };
     if args.json {
-        let report = serde_json::json!({
-            "scene": scene.name,
-            "width": image.width,
-            "height": image.height,
-            "spp": settings.spp,
-            "max_depth": settings.path.max_depth,
-            "seed": settings.seed,
-            "threads": rayon_threads(settings.threads),
-            "camera": camera,
-            "mode": mode,
-            "render_s": image.elapsed.as_secs_f64(),
-            "prepare_s": image.prepare.as_secs_f64(),
-            "samples_per_s": image.samples_per_second(),
-            "mean_rgb": mean,
-        });
-        return Ok(report.to_string() + "\n");
+        let report = RenderReport {
+            scene: &scene.name,
+            width: image.width,
+            height: image.height,
+            spp: settings.spp,
+            max_depth: settings.path.max_depth,
+            seed: settings.seed,
+            threads: rayon_threads(settings.threads),
+            camera,
+            mode,
+            render_s: image.elapsed.as_secs_f64(),
+            prepare_s: image.prepare.as_secs_f64(),
+            samples_per_s: image.samples_per_second(),
+            mean_rgb: mean,
+        };
+        return Ok(
+            serde_json::to_string(&report).map_err(|e| Error::Message(e.to_string()))? + "\n",
+        );
     }
     Ok(format!(
         "scene {} ({mode}, {camera}): {} x {} at {} spp, max depth {}, seed {}\n\

@@ -5,7 +5,7 @@
 mod common;
 use common::{camsim, temp_dir};
 
-use host_tracer::dng::Dng;
+use raw_formats::dng::Dng;
 
 #[test]
 fn demo_writes_every_file_and_a_plausible_report() {
@@ -66,13 +66,13 @@ fn demo_writes_every_file_and_a_plausible_report() {
 
     // The DNG holds the sensor's frame: 12-bit levels, RGGB, two calibrations, a neutral.
     let dng = Dng::read(&out.join("raw.dng")).unwrap();
-    assert_eq!((dng.width, dng.height), (300, 200));
-    assert_eq!(dng.white_level, 4095);
-    assert_eq!(dng.black_level, [256; 4]);
-    assert_eq!(dng.calibrations.len(), 2);
-    assert!(dng.as_shot_neutral.is_some());
-    let png = host_tracer::imageio::read(&out.join("raw.png")).unwrap();
-    assert_eq!(png.data, dng.raw);
+    assert_eq!((dng.image.width, dng.image.height), (300, 200));
+    assert_eq!(dng.image.white_level, 4095);
+    assert_eq!(dng.image.black_level, [256; 4]);
+    assert_eq!(dng.colour.calibrations.len(), 2);
+    assert!(dng.colour.as_shot_neutral.is_some());
+    let png = raw_formats::image::read(&out.join("raw.png")).unwrap();
+    assert_eq!(png.data, dng.image.samples);
 
     // camsim isp takes pattern, levels, white balance and colour matrix from the DNG.
     let srgb = dir.join("isp.png");
@@ -87,8 +87,8 @@ fn demo_writes_every_file_and_a_plausible_report() {
     ]);
     assert!(ok, "{stderr}");
     assert!(stdout.contains("colour matrix"), "{stdout}");
-    let ours = host_tracer::imageio::read(&srgb).unwrap();
-    let truth = host_tracer::imageio::read(&out.join("truth.png")).unwrap();
+    let ours = raw_formats::image::read(&srgb).unwrap();
+    let truth = raw_formats::image::read(&out.join("truth.png")).unwrap();
     let mse = ours
         .data
         .iter()
@@ -132,9 +132,9 @@ fn calibrate_writes_a_file_isp_reads() {
         stdout.contains("under A") && stdout.contains("under D65"),
         "{stdout}"
     );
-    let cal = host_tracer::calibrate::CalibrationFile::read(&file).unwrap();
+    let cal = raw_formats::calibration::CalibrationFile::read(&file).unwrap();
     assert_eq!(cal.entries.len(), 2);
-    assert!((cal.entries[0].1 - 2856.0).abs() < 30.0);
+    assert!((cal.entries[0].cct_k - 2856.0).abs() < 30.0);
     // The mean error printed for D65 is the test's bound or better.
     let d65 = stdout.split("under D65").nth(1).unwrap();
     let mean: f64 = d65

@@ -11,19 +11,26 @@
 //! tiled or linear DNGs are refused with an error that says so. Every offset and count is
 //! checked against the file, so a damaged file gives an error, never a panic.
 //!
+//! A file's colour tags are held as the file states them in [`DngColour`], which is also the
+//! one place that converts them to and from isp-core's [`Calibration`].
+//!
 //! ```
-//! use host_tracer::dng::{Dng, Illuminant};
+//! use raw_formats::dng::{ColourCalibration, Dng, DngColour, Illuminant};
+//! use raw_formats::RawImage;
 //! use isp_core::CfaPattern;
+//! let image = RawImage::new(4, 2, CfaPattern::Grbg, 10, [64; 4], 1023,
+//!     (0..8).map(|i| 100 * i).collect()).unwrap();
 //! let dng = Dng {
-//!     width: 4,
-//!     height: 2,
-//!     pattern: CfaPattern::Grbg,
-//!     black_level: [64; 4],
-//!     white_level: 1023,
-//!     raw: (0..8).map(|i| 100 * i).collect(),
+//!     image,
 //!     camera_model: "camsim test".into(),
-//!     calibrations: vec![(Illuminant::D65, [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])],
-//!     as_shot_neutral: Some([0.5, 1.0, 0.8]),
+//!     colour: DngColour {
+//!         calibrations: vec![ColourCalibration::new(
+//!             Illuminant::D65,
+//!             [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+//!         )],
+//!         as_shot_neutral: Some([0.5, 1.0, 0.8]),
+//!         ..DngColour::default()
+//!     },
 //! };
 //! let bytes = dng.encode().unwrap();
 //! assert_eq!(Dng::decode(&bytes).unwrap(), dng);
@@ -31,8 +38,12 @@
 
 use std::path::Path;
 
-use isp_core::colour::Mat3;
+use isp_core::ccm::Calibration;
+use isp_core::colour::{self, Mat3};
 use isp_core::CfaPattern;
+
+use crate::error::{FormatError, Result};
+use crate::raw_image::RawImage;
 
 /// A calibration illuminant by its EXIF LightSource code.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -88,7 +99,7 @@ impl Illuminant {
         }
     }
 
-    /// By the name used on the command line and in [`crate::spectra::ILLUMINANTS`].
+    /// By the name the spectral tables and the command line use (`A`, `D50`, `D65`, ...).
     pub fn from_name(name: &str) -> Option<Self> {
         match name {
             "A" => Some(Illuminant::A),
@@ -101,27 +112,113 @@ impl Illuminant {
     }
 }
 
+/// One of a DNG's (at most two) colour calibrations, as the file states it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ColourCalibration {
+    /// CalibrationIlluminant1/2.
+    pub illuminant: Illuminant,
+    /// ColorMatrix1/2: XYZ to reference camera RGB.
+    pub color_matrix: Mat3,
+    /// ForwardMatrix1/2 (white-balanced camera RGB to XYZ D50), if the file has it.
+    pub forward_matrix: Option<Mat3>,
+    /// CameraCalibration1/2 (reference to this individual camera), if the file has it.
+    pub camera_calibration: Option<Mat3>,
+}
+
+impl ColourCalibration {
+    /// A calibration with only a colour matrix.
+    pub fn new(illuminant: Illuminant, color_matrix: Mat3) -> Self {
+        Self {
+            illuminant,
+            color_matrix,
+            forward_matrix: None,
+            camera_calibration: None,
+        }
+    }
+
+    /// The DNG ColorMatrix for a measured camera-to-XYZ matrix: its inverse (XYZ to camera),
+    /// scaled so the calibration illuminant's white (`white_xyz`) has a largest camera channel
+    /// of 1, Adobe's convention.
+    pub fn from_camera_to_xyz(
+        illuminant: Illuminant,
+        camera_to_xyz: &Mat3,
+        white_xyz: [f64; 3],
+    ) -> Result<Self> {
+        let xyz_to_camera =
+            colour::mat3_inverse(camera_to_xyz).map_err(|source| FormatError::Colour {
+                field: "camera-to-XYZ matrix",
+                source,
+            })?;
+        let cam = colour::mat3_mul_vec(&xyz_to_camera, white_xyz);
+        let peak = cam.iter().copied().fold(0.0, f64::max);
+        let scaled = xyz_to_camera.map(|r| r.map(|v| v / peak.max(1e-12)));
+        Ok(Self::new(illuminant, scaled))
+    }
+}
+
+/// A camera's colour metadata as a DNG states it. [`DngColour::to_calibration`] is the one
+/// conversion to isp-core's [`Calibration`]; [`ColourCalibration::from_camera_to_xyz`] the
+/// one conversion from a measured matrix.
+///
+/// ForwardMatrix, CameraCalibration and AnalogBalance are read and written but not yet used
+/// by [`DngColour::to_calibration`], which follows ColorMatrix alone.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct DngColour {
+    /// ColorMatrix1/2 with their illuminants (and the matrices that go with them), at most two.
+    pub calibrations: Vec<ColourCalibration>,
+    /// AnalogBalance, if the file has it.
+    pub analog_balance: Option<[f64; 3]>,
+    /// AsShotNeutral: the white balance as shot, the illuminant's colour in camera RGB.
+    pub as_shot_neutral: Option<[f64; 3]>,
+}
+
+impl DngColour {
+    /// isp-core's calibration from the colour matrices (each inverted to camera-to-XYZ, at its
+    /// illuminant's temperature); `None` when the file has none. An illuminant without a known
+    /// temperature is refused.
+    pub fn to_calibration(&self) -> Result<Option<Calibration>> {
+        let mut entries = Vec::new();
+        for c in &self.calibrations {
+            let cct = c.illuminant.cct_k().ok_or(FormatError::Unsupported {
+                field: "calibration illuminant code",
+                value: c.illuminant.code().to_string(),
+                supported: "A, D50, D55, D65, D75 have a known colour temperature",
+            })?;
+            let to_xyz =
+                colour::mat3_inverse(&c.color_matrix).map_err(|source| FormatError::Colour {
+                    field: "ColorMatrix",
+                    source,
+                })?;
+            entries.push((cct, to_xyz));
+        }
+        match entries.as_slice() {
+            [] => Ok(None),
+            [(t, m)] => Calibration::single(*t, *m).map(Some),
+            [(t1, m1), (t2, m2)] => Calibration::new([*t1, *t2], [*m1, *m2]).map(Some),
+            _ => Ok(None),
+        }
+        .map_err(|source| FormatError::Colour {
+            field: "colour matrices",
+            source,
+        })
+    }
+
+    /// White-balance gains (green 1) from the as-shot neutral.
+    pub fn as_shot_gains(&self) -> Option<[f32; 3]> {
+        self.as_shot_neutral
+            .map(|n| [(n[1] / n[0]) as f32, 1.0, (n[1] / n[2]) as f32])
+    }
+}
+
 /// A raw CFA frame with its colour metadata.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Dng {
-    /// Width in pixels.
-    pub width: usize,
-    /// Height in pixels.
-    pub height: usize,
-    /// CFA pattern.
-    pub pattern: CfaPattern,
-    /// Black level per 2x2 position, row by row.
-    pub black_level: [u16; 4],
-    /// White level.
-    pub white_level: u16,
-    /// Samples, row-major.
-    pub raw: Vec<u16>,
+    /// The raw frame (size, pattern, levels, samples).
+    pub image: RawImage,
     /// Make/model text (UniqueCameraModel).
     pub camera_model: String,
-    /// One or two XYZ-to-camera matrices (DNG's ColorMatrix1/2) with their illuminants.
-    pub calibrations: Vec<(Illuminant, Mat3)>,
-    /// The white balance as shot: the illuminant's colour in camera RGB.
-    pub as_shot_neutral: Option<[f64; 3]>,
+    /// Colour tags.
+    pub colour: DngColour,
 }
 
 // Tags, by number (TIFF 6.0 and DNG 1.4).
@@ -152,9 +249,14 @@ const BLACK_LEVEL: u16 = 50714;
 const WHITE_LEVEL: u16 = 50717;
 const COLOR_MATRIX_1: u16 = 50721;
 const COLOR_MATRIX_2: u16 = 50722;
+const CAMERA_CALIBRATION_1: u16 = 50723;
+const CAMERA_CALIBRATION_2: u16 = 50724;
+const ANALOG_BALANCE: u16 = 50727;
 const AS_SHOT_NEUTRAL: u16 = 50728;
 const CALIBRATION_ILLUMINANT_1: u16 = 50778;
 const CALIBRATION_ILLUMINANT_2: u16 = 50779;
+const FORWARD_MATRIX_1: u16 = 50964;
+const FORWARD_MATRIX_2: u16 = 50965;
 
 const CFA_PHOTOMETRIC: u32 = 32803;
 
@@ -261,38 +363,31 @@ fn cfa_codes(pattern: CfaPattern) -> [u8; 4] {
 }
 
 impl Dng {
-    /// Checks sizes and levels.
-    fn check(&self) -> Result<(), String> {
-        if self.width == 0 || self.height == 0 || self.width > 65535 || self.height > 65535 {
-            return Err(format!(
-                "DNG: size {} x {} outside 1..=65535",
-                self.width, self.height
-            ));
+    /// Checks sizes, levels and colour tags before writing.
+    fn check(&self) -> Result<()> {
+        let image = &self.image;
+        image.check()?;
+        if image.width > 65535 || image.height > 65535 {
+            return Err(FormatError::OutOfRange {
+                field: "DNG size",
+                value: format!("{} x {}", image.width, image.height),
+                allowed: "1..=65535 on each side".into(),
+            });
         }
-        if self.raw.len() != self.width * self.height {
-            return Err(format!(
-                "DNG: {} samples for {} x {}",
-                self.raw.len(),
-                self.width,
-                self.height
-            ));
-        }
-        if self.black_level.iter().any(|b| *b >= self.white_level) {
-            return Err(format!(
-                "DNG: black level {:?} must be below the white level {}",
-                self.black_level, self.white_level
-            ));
-        }
-        if self.calibrations.len() > 2 {
-            return Err("DNG: at most two colour matrices".into());
+        if self.colour.calibrations.len() > 2 {
+            return Err(FormatError::OutOfRange {
+                field: "colour matrix count",
+                value: self.colour.calibrations.len().to_string(),
+                allowed: "0..=2 (ColorMatrix1/2)".into(),
+            });
         }
         Ok(())
     }
 
     /// The file's bytes.
-    pub fn encode(&self) -> Result<Vec<u8>, String> {
+    pub fn encode(&self) -> Result<Vec<u8>> {
         self.check()?;
-        let (w, h) = (self.width as u32, self.height as u32);
+        let (w, h) = (self.image.width as u32, self.image.height as u32);
         let strip_bytes = w as usize * h as usize * 2;
         let model = if self.camera_model.is_empty() {
             "camsim"
@@ -316,38 +411,58 @@ impl Dng {
             short(PLANAR_CONFIGURATION, &[1]),
             ascii(SOFTWARE, concat!("camsim ", env!("CARGO_PKG_VERSION"))),
             short(CFA_REPEAT_PATTERN_DIM, &[2, 2]),
-            bytes(CFA_PATTERN, &cfa_codes(self.pattern)),
+            bytes(CFA_PATTERN, &cfa_codes(self.image.pattern)),
             bytes(DNG_VERSION, &[1, 4, 0, 0]),
             bytes(DNG_BACKWARD_VERSION, &[1, 1, 0, 0]),
             ascii(UNIQUE_CAMERA_MODEL, model),
         ];
-        let black = self.black_level;
+        let black = self.image.black_level;
         if black.iter().all(|b| *b == black[0]) {
             entries.push(short(BLACK_LEVEL, &[black[0]]));
         } else {
             entries.push(short(BLACK_LEVEL_REPEAT_DIM, &[2, 2]));
             entries.push(short(BLACK_LEVEL, &black));
         }
-        entries.push(short(WHITE_LEVEL, &[self.white_level]));
-        let tags = [
-            (COLOR_MATRIX_1, CALIBRATION_ILLUMINANT_1),
-            (COLOR_MATRIX_2, CALIBRATION_ILLUMINANT_2),
-        ];
-        for ((illuminant, m), (matrix_tag, illuminant_tag)) in self.calibrations.iter().zip(tags) {
+        entries.push(short(WHITE_LEVEL, &[self.image.white_level]));
+        let matrix = |tag: u16, m: &Mat3| -> Result<Entry> {
             let flat: Vec<f64> = m.iter().flatten().copied().collect();
             if !flat.iter().all(|v| v.is_finite()) {
-                return Err("DNG: colour matrix has a non-finite value".into());
+                return Err(FormatError::OutOfRange {
+                    field: "colour matrix",
+                    value: format!("{m:?}"),
+                    allowed: "finite values".into(),
+                });
             }
-            entries.push(srational(matrix_tag, &flat));
-            entries.push(short(illuminant_tag, &[illuminant.code()]));
+            Ok(srational(tag, &flat))
+        };
+        for (c, tags) in self.colour.calibrations.iter().zip(CALIBRATION_TAGS) {
+            entries.push(matrix(tags.color_matrix, &c.color_matrix)?);
+            entries.push(short(tags.illuminant, &[c.illuminant.code()]));
+            if let Some(m) = &c.forward_matrix {
+                entries.push(matrix(tags.forward_matrix, m)?);
+            }
+            if let Some(m) = &c.camera_calibration {
+                entries.push(matrix(tags.camera_calibration, m)?);
+            }
         }
-        if let Some(n) = self.as_shot_neutral {
-            // Written as n / 1e6: a value that rounds to 0 or past u32 would not read back.
-            if !n.iter().all(|v| (1e-6..=4294.0).contains(v)) {
-                return Err(format!(
-                    "DNG: as-shot neutral {n:?} must be in [1e-6, 4294] (written in millionths)"
-                ));
+        // Written as n / 1e6: a value that rounds to 0 or past u32 would not read back.
+        let millionths = |field: &'static str, n: [f64; 3]| -> Result<()> {
+            if n.iter().all(|v| (1e-6..=4294.0).contains(v)) {
+                Ok(())
+            } else {
+                Err(FormatError::OutOfRange {
+                    field,
+                    value: format!("{n:?}"),
+                    allowed: "[1e-6, 4294] (written in millionths)".into(),
+                })
             }
+        };
+        if let Some(n) = self.colour.analog_balance {
+            millionths("analog balance", n)?;
+            entries.push(rational(ANALOG_BALANCE, &n));
+        }
+        if let Some(n) = self.colour.as_shot_neutral {
+            millionths("as-shot neutral", n)?;
             entries.push(rational(AS_SHOT_NEUTRAL, &n));
         }
         entries.sort_by_key(|e| e.tag);
@@ -391,30 +506,34 @@ impl Dng {
         out.extend_from_slice(&0u32.to_le_bytes()); // no next IFD
         out.extend_from_slice(&extra);
         debug_assert_eq!(out.len(), strip_offset as usize);
-        for v in &self.raw {
+        for v in &self.image.samples {
             out.extend_from_slice(&v.to_le_bytes());
         }
         Ok(out)
     }
 
     /// Writes the file.
-    pub fn write(&self, path: &Path) -> Result<(), String> {
-        std::fs::write(path, self.encode()?).map_err(|e| format!("{}: {e}", path.display()))
+    pub fn write(&self, path: &Path) -> Result<()> {
+        let bytes = self.encode().map_err(|e| e.in_file(path))?;
+        std::fs::write(path, bytes).map_err(|e| FormatError::io(path, e))
     }
 
     /// Reads a file.
-    pub fn read(path: &Path) -> Result<Dng, String> {
-        let data = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        Dng::decode(&data).map_err(|e| format!("{}: {e}", path.display()))
+    pub fn read(path: &Path) -> Result<Dng> {
+        let data = std::fs::read(path).map_err(|e| FormatError::io(path, e))?;
+        Dng::decode(&data).map_err(|e| e.in_file(path))
     }
 
     /// Parses a file's bytes.
-    pub fn decode(data: &[u8]) -> Result<Dng, String> {
+    pub fn decode(data: &[u8]) -> Result<Dng> {
         let file = Tiff::new(data)?;
         let first = file.u32_at(4)? as usize;
         let ifd0 = file.ifd(first)?;
         if ifd0.get(DNG_VERSION).is_none() {
-            return Err("not a DNG (no DNGVersion tag)".into());
+            return Err(FormatError::NotFormat {
+                format: "DNG",
+                reason: "no DNGVersion tag",
+            });
         }
         // The raw image: IFD 0 if it is the CFA image, else the SubIFD that is.
         let mut raw_ifd = None;
@@ -429,9 +548,7 @@ impl Dng {
                 }
             }
         }
-        let raw_ifd = raw_ifd.ok_or(
-            "no CFA raw image (PhotometricInterpretation 32803, NewSubfileType 0) in IFD 0 or its SubIFDs; linear DNGs are not supported",
-        )?;
+        let raw_ifd = raw_ifd.ok_or(FormatError::NoCfaImage)?;
         file.read_raw(&raw_ifd, &ifd0)
     }
 }
@@ -457,23 +574,34 @@ struct Tiff<'a> {
 }
 
 impl<'a> Tiff<'a> {
-    fn new(data: &'a [u8]) -> Result<Self, String> {
+    fn new(data: &'a [u8]) -> Result<Self> {
         let little = match data.get(..4) {
             Some(b"II*\0") => true,
             Some(b"MM\0*") => false,
-            _ => return Err("not a TIFF/DNG file (bad header)".into()),
+            _ => {
+                return Err(FormatError::NotFormat {
+                    format: "TIFF/DNG",
+                    reason: "bad header",
+                })
+            }
         };
         Ok(Self { data, little })
     }
 
-    fn bytes(&self, at: usize, n: usize) -> Result<&'a [u8], String> {
+    fn bytes(&self, at: usize, n: usize) -> Result<&'a [u8]> {
         at.checked_add(n)
             .and_then(|end| self.data.get(at..end))
-            .ok_or_else(|| format!("truncated file: {n} bytes at offset {at} are past its end"))
+            .ok_or(FormatError::Truncated { offset: at, len: n })
     }
 
-    fn u16_at(&self, at: usize) -> Result<u16, String> {
-        let b: [u8; 2] = self.bytes(at, 2)?.try_into().map_err(|_| "short read")?;
+    fn array<const N: usize>(&self, at: usize) -> Result<[u8; N]> {
+        let mut b = [0u8; N];
+        b.copy_from_slice(self.bytes(at, N)?);
+        Ok(b)
+    }
+
+    fn u16_at(&self, at: usize) -> Result<u16> {
+        let b: [u8; 2] = self.array(at)?;
         Ok(if self.little {
             u16::from_le_bytes(b)
         } else {
@@ -481,8 +609,8 @@ impl<'a> Tiff<'a> {
         })
     }
 
-    fn u32_at(&self, at: usize) -> Result<u32, String> {
-        let b: [u8; 4] = self.bytes(at, 4)?.try_into().map_err(|_| "short read")?;
+    fn u32_at(&self, at: usize) -> Result<u32> {
+        let b: [u8; 4] = self.array(at)?;
         Ok(if self.little {
             u32::from_le_bytes(b)
         } else {
@@ -490,7 +618,7 @@ impl<'a> Tiff<'a> {
         })
     }
 
-    fn ifd(&self, at: usize) -> Result<Ifd, String> {
+    fn ifd(&self, at: usize) -> Result<Ifd> {
         let n = self.u16_at(at)? as usize;
         let mut entries = Vec::with_capacity(n);
         for i in 0..n {
@@ -506,11 +634,11 @@ impl<'a> Tiff<'a> {
     }
 
     /// Where an entry's values start.
-    fn value_offset(&self, kind: u16, count: u32, field: usize) -> Result<(usize, usize), String> {
-        let size = type_size(kind).ok_or(format!("unknown TIFF field type {kind}"))?;
+    fn value_offset(&self, kind: u16, count: u32, field: usize) -> Result<(usize, usize)> {
+        let size = type_size(kind).ok_or(FormatError::FieldType { field_type: kind })?;
         let len = size
             .checked_mul(count as usize)
-            .ok_or("TIFF field too long")?;
+            .ok_or(FormatError::FieldTooLong { count })?;
         let at = if len <= 4 {
             field
         } else {
@@ -521,10 +649,10 @@ impl<'a> Tiff<'a> {
     }
 
     /// An entry's values as numbers (integers; rationals as numerator/denominator).
-    fn numbers(&self, entry: (u16, u32, usize)) -> Result<Vec<f64>, String> {
+    fn numbers(&self, entry: (u16, u32, usize)) -> Result<Vec<f64>> {
         let (kind, count, field) = entry;
         if count > 1 << 24 {
-            return Err(format!("TIFF field with {count} values is too long"));
+            return Err(FormatError::FieldTooLong { count });
         }
         let (at, size) = self.value_offset(kind, count, field)?;
         (0..count as usize)
@@ -540,13 +668,13 @@ impl<'a> Tiff<'a> {
                     RATIONAL => self.u32_at(p)? as f64 / self.u32_at(p + 4)? as f64,
                     SRATIONAL => self.u32_at(p)? as i32 as f64 / self.u32_at(p + 4)? as i32 as f64,
                     11 => f32::from_bits(self.u32_at(p)?) as f64,
-                    _ => return Err(format!("TIFF field type {kind} is not a number")),
+                    _ => return Err(FormatError::FieldType { field_type: kind }),
                 })
             })
             .collect()
     }
 
-    fn values(&self, entry: (u16, u32, usize)) -> Result<Vec<u32>, String> {
+    fn values(&self, entry: (u16, u32, usize)) -> Result<Vec<u32>> {
         Ok(self
             .numbers(entry)?
             .into_iter()
@@ -554,12 +682,27 @@ impl<'a> Tiff<'a> {
             .collect())
     }
 
-    fn one(&self, ifd: &Ifd, tag: u16, name: &str) -> Result<u32, String> {
-        let entry = ifd.get(tag).ok_or(format!("missing {name} tag ({tag})"))?;
+    fn one(&self, ifd: &Ifd, tag: u16, name: &'static str) -> Result<u32> {
+        let missing = FormatError::Missing {
+            field: name,
+            tag: Some(tag),
+        };
+        let entry = ifd.get(tag).ok_or(missing)?;
         self.values(entry)?
             .first()
             .copied()
-            .ok_or(format!("{name} tag ({tag}) has no value"))
+            .ok_or(FormatError::Missing {
+                field: name,
+                tag: Some(tag),
+            })
+    }
+
+    /// The entry `tag`, which must be present.
+    fn required(ifd: &Ifd, tag: u16, name: &'static str) -> Result<(u16, u32, usize)> {
+        ifd.get(tag).ok_or(FormatError::Missing {
+            field: name,
+            tag: Some(tag),
+        })
     }
 
     fn text(&self, ifd: &Ifd, tag: u16) -> Option<String> {
@@ -573,7 +716,7 @@ impl<'a> Tiff<'a> {
         Some(String::from_utf8_lossy(&b[..end]).into_owned())
     }
 
-    fn is_cfa_raw(&self, ifd: &Ifd) -> Result<bool, String> {
+    fn is_cfa_raw(&self, ifd: &Ifd) -> Result<bool> {
         let subfile = ifd
             .get(NEW_SUBFILE_TYPE)
             .map(|e| self.values(e))
@@ -588,17 +731,19 @@ impl<'a> Tiff<'a> {
         Ok(subfile == 0 && photometric == Some(CFA_PHOTOMETRIC))
     }
 
-    fn read_raw(&self, ifd: &Ifd, ifd0: &Ifd) -> Result<Dng, String> {
+    fn read_raw(&self, ifd: &Ifd, ifd0: &Ifd) -> Result<Dng> {
         let width = self.one(ifd, IMAGE_WIDTH, "ImageWidth")? as usize;
         let height = self.one(ifd, IMAGE_LENGTH, "ImageLength")? as usize;
         if width == 0 || height == 0 || width > 65535 || height > 65535 {
-            return Err(format!("image size {width} x {height} outside 1..=65535"));
+            return Err(FormatError::OutOfRange {
+                field: "image size",
+                value: format!("{width} x {height}"),
+                allowed: "1..=65535".into(),
+            });
         }
         let bits = self.one(ifd, BITS_PER_SAMPLE, "BitsPerSample")?;
         if bits != 8 && bits != 16 {
-            return Err(format!(
-                "{bits}-bit samples are not supported (8 and 16 are)"
-            ));
+            return Err(FormatError::SampleBits { bits });
         }
         let compression = ifd
             .get(COMPRESSION)
@@ -607,12 +752,10 @@ impl<'a> Tiff<'a> {
             .and_then(|v| v.first().copied())
             .unwrap_or(1);
         if compression != 1 {
-            return Err(format!(
-                "compression {compression} is not supported, only uncompressed (1); convert with Adobe DNG Converter's uncompressed option"
-            ));
+            return Err(FormatError::Compression { value: compression });
         }
         if ifd.get(TILE_WIDTH).is_some() {
-            return Err("tiled DNGs are not supported, only strips".into());
+            return Err(FormatError::Tiled);
         }
         let samples = ifd
             .get(SAMPLES_PER_PIXEL)
@@ -621,7 +764,11 @@ impl<'a> Tiff<'a> {
             .and_then(|v| v.first().copied())
             .unwrap_or(1);
         if samples != 1 {
-            return Err(format!("{samples} samples per pixel; a CFA image has 1"));
+            return Err(FormatError::Unsupported {
+                field: "SamplesPerPixel",
+                value: samples.to_string(),
+                supported: "a CFA image has 1",
+            });
         }
         let dim = ifd
             .get(CFA_REPEAT_PATTERN_DIM)
@@ -629,11 +776,13 @@ impl<'a> Tiff<'a> {
             .transpose()?
             .unwrap_or(vec![2, 2]);
         if dim != [2, 2] {
-            return Err(format!(
-                "CFA repeat pattern {dim:?} is not supported, only 2x2"
-            ));
+            return Err(FormatError::Unsupported {
+                field: "CFARepeatPatternDim",
+                value: format!("{dim:?}"),
+                supported: "only 2x2",
+            });
         }
-        let codes = self.values(ifd.get(CFA_PATTERN).ok_or("missing CFAPattern tag")?)?;
+        let codes = self.values(Self::required(ifd, CFA_PATTERN, "CFAPattern")?)?;
         let pattern = [
             CfaPattern::Rggb,
             CfaPattern::Bggr,
@@ -647,17 +796,20 @@ impl<'a> Tiff<'a> {
                 .map(|c| *c as u32)
                 .eq(codes.iter().copied())
         })
-        .ok_or(format!(
-            "CFA pattern {codes:?} is not a Bayer pattern of R (0), G (1), B (2)"
-        ))?;
+        .ok_or(FormatError::Unsupported {
+            field: "CFAPattern",
+            value: format!("{codes:?}"),
+            supported: "a Bayer pattern of R (0), G (1), B (2)",
+        })?;
 
-        let offsets = self.values(ifd.get(STRIP_OFFSETS).ok_or("missing StripOffsets tag")?)?;
-        let counts = self.values(
-            ifd.get(STRIP_BYTE_COUNTS)
-                .ok_or("missing StripByteCounts tag")?,
-        )?;
+        let offsets = self.values(Self::required(ifd, STRIP_OFFSETS, "StripOffsets")?)?;
+        let counts = self.values(Self::required(ifd, STRIP_BYTE_COUNTS, "StripByteCounts")?)?;
         if offsets.len() != counts.len() {
-            return Err("StripOffsets and StripByteCounts differ in length".into());
+            return Err(FormatError::SizeMismatch {
+                what: "StripByteCounts entries (one per StripOffsets entry)",
+                found: counts.len(),
+                expected: offsets.len(),
+            });
         }
         let bytes_per_sample = bits as usize / 8;
         let needed = width * height * bytes_per_sample;
@@ -670,10 +822,11 @@ impl<'a> Tiff<'a> {
             }
         }
         if pixels.len() < needed {
-            return Err(format!(
-                "the strips hold {} bytes, {width} x {height} {bits}-bit samples need {needed}",
-                pixels.len()
-            ));
+            return Err(FormatError::SizeMismatch {
+                what: "strip bytes",
+                found: pixels.len(),
+                expected: needed,
+            });
         }
         let raw: Vec<u16> = if bits == 8 {
             pixels[..needed].iter().map(|v| *v as u16).collect()
@@ -696,7 +849,10 @@ impl<'a> Tiff<'a> {
                 .numbers(e)?
                 .first()
                 .copied()
-                .ok_or("WhiteLevel has no value")?,
+                .ok_or(FormatError::Missing {
+                    field: "WhiteLevel",
+                    tag: Some(WHITE_LEVEL),
+                })?,
             None => max as f64,
         };
         let black_values = match ifd.get(BLACK_LEVEL) {
@@ -707,16 +863,22 @@ impl<'a> Tiff<'a> {
             1 => [black_values[0]; 4],
             4 => std::array::from_fn(|i| black_values[i]),
             n => {
-                return Err(format!(
-                    "BlackLevel with {n} values is not supported (1, or 4 for a 2x2 repeat)"
-                ))
+                return Err(FormatError::Unsupported {
+                    field: "BlackLevel value count",
+                    value: n.to_string(),
+                    supported: "1, or 4 for a 2x2 repeat",
+                })
             }
         };
-        let level = |v: f64, name: &str| -> Result<u16, String> {
+        let level = |v: f64, field: &'static str| -> Result<u16> {
             if v.is_finite() && (0.0..=max as f64).contains(&v) {
                 Ok(v.round() as u16)
             } else {
-                Err(format!("{name} {v} is outside 0..={max}"))
+                Err(FormatError::OutOfRange {
+                    field,
+                    value: v.to_string(),
+                    allowed: format!("0..={max}"),
+                })
             }
         };
         let white_level = level(white, "WhiteLevel")?;
@@ -724,62 +886,108 @@ impl<'a> Tiff<'a> {
         for (b, v) in black_level.iter_mut().zip(black) {
             *b = level(v, "BlackLevel")?;
         }
-        if black_level.iter().any(|b| *b >= white_level) {
-            return Err(format!(
-                "BlackLevel {black_level:?} is not below WhiteLevel {white_level}"
-            ));
-        }
+        // The significant bits: those the white level needs (8 at least).
+        let significant = (16 - white_level.leading_zeros()).clamp(8, 16) as u8;
+        let image = RawImage::new(
+            width,
+            height,
+            pattern,
+            significant,
+            black_level,
+            white_level,
+            raw,
+        )?;
 
         // Colour tags live in IFD 0.
+        let matrix = |tag: u16, name: &'static str| -> Result<Option<Mat3>> {
+            let Some(e) = ifd0.get(tag) else {
+                return Ok(None);
+            };
+            let v = self.numbers(e)?;
+            if v.len() != 9 || !v.iter().all(|x| x.is_finite()) {
+                return Err(FormatError::Unsupported {
+                    field: name,
+                    value: format!("{} values", v.len()),
+                    supported: "9 finite values (3-channel CFA)",
+                });
+            }
+            Ok(Some(std::array::from_fn(|i| {
+                std::array::from_fn(|j| v[3 * i + j])
+            })))
+        };
         let mut calibrations = Vec::new();
-        for (matrix_tag, illuminant_tag) in [
-            (COLOR_MATRIX_1, CALIBRATION_ILLUMINANT_1),
-            (COLOR_MATRIX_2, CALIBRATION_ILLUMINANT_2),
-        ] {
-            if let Some(e) = ifd0.get(matrix_tag) {
-                let v = self.numbers(e)?;
-                if v.len() != 9 || !v.iter().all(|x| x.is_finite()) {
-                    return Err(format!(
-                        "ColorMatrix tag {matrix_tag} must hold 9 finite values (3-channel CFA)"
-                    ));
-                }
+        for (tags, name) in CALIBRATION_TAGS
+            .iter()
+            .zip(["ColorMatrix1", "ColorMatrix2"])
+        {
+            if let Some(color_matrix) = matrix(tags.color_matrix, name)? {
                 let illuminant = ifd0
-                    .get(illuminant_tag)
+                    .get(tags.illuminant)
                     .map(|e| self.values(e))
                     .transpose()?
                     .and_then(|v| v.first().copied())
                     .unwrap_or(0);
-                let m: Mat3 = std::array::from_fn(|i| std::array::from_fn(|j| v[3 * i + j]));
-                calibrations.push((Illuminant::from_code(illuminant as u16), m));
+                calibrations.push(ColourCalibration {
+                    illuminant: Illuminant::from_code(illuminant as u16),
+                    color_matrix,
+                    forward_matrix: matrix(tags.forward_matrix, "ForwardMatrix")?,
+                    camera_calibration: matrix(tags.camera_calibration, "CameraCalibration")?,
+                });
             }
         }
-        let as_shot_neutral = match ifd0.get(AS_SHOT_NEUTRAL) {
-            Some(e) => {
-                let v = self.numbers(e)?;
-                if v.len() != 3 || !v.iter().all(|x| x.is_finite() && *x > 0.0) {
-                    return Err("AsShotNeutral must hold 3 positive values".into());
-                }
-                Some([v[0], v[1], v[2]])
+        let triple = |tag: u16, name: &'static str| -> Result<Option<[f64; 3]>> {
+            let Some(e) = ifd0.get(tag) else {
+                return Ok(None);
+            };
+            let v = self.numbers(e)?;
+            if v.len() != 3 || !v.iter().all(|x| x.is_finite() && *x > 0.0) {
+                return Err(FormatError::Unsupported {
+                    field: name,
+                    value: format!("{v:?}"),
+                    supported: "3 positive values",
+                });
             }
-            None => None,
+            Ok(Some([v[0], v[1], v[2]]))
+        };
+        let colour = DngColour {
+            calibrations,
+            analog_balance: triple(ANALOG_BALANCE, "AnalogBalance")?,
+            as_shot_neutral: triple(AS_SHOT_NEUTRAL, "AsShotNeutral")?,
         };
         let camera_model = self
             .text(ifd0, UNIQUE_CAMERA_MODEL)
             .or_else(|| self.text(ifd0, MODEL))
             .unwrap_or_default();
         Ok(Dng {
-            width,
-            height,
-            pattern,
-            black_level,
-            white_level,
-            raw,
+            image,
             camera_model,
-            calibrations,
-            as_shot_neutral,
+            colour,
         })
     }
 }
+
+/// The tags of calibration 1 and 2.
+struct CalibrationTags {
+    color_matrix: u16,
+    illuminant: u16,
+    forward_matrix: u16,
+    camera_calibration: u16,
+}
+
+const CALIBRATION_TAGS: [CalibrationTags; 2] = [
+    CalibrationTags {
+        color_matrix: COLOR_MATRIX_1,
+        illuminant: CALIBRATION_ILLUMINANT_1,
+        forward_matrix: FORWARD_MATRIX_1,
+        camera_calibration: CAMERA_CALIBRATION_1,
+    },
+    CalibrationTags {
+        color_matrix: COLOR_MATRIX_2,
+        illuminant: CALIBRATION_ILLUMINANT_2,
+        forward_matrix: FORWARD_MATRIX_2,
+        camera_calibration: CAMERA_CALIBRATION_2,
+    },
+];
 
 #[cfg(test)]
 mod tests {
@@ -787,24 +995,31 @@ mod tests {
 
     fn sample() -> Dng {
         Dng {
-            width: 5,
-            height: 3,
-            pattern: CfaPattern::Bggr,
-            black_level: [10, 11, 12, 13],
-            white_level: 4095,
-            raw: (0..15).map(|i| i * 200).collect(),
+            image: RawImage::new(
+                5,
+                3,
+                CfaPattern::Bggr,
+                12,
+                [10, 11, 12, 13],
+                4095,
+                (0..15).map(|i| i * 200).collect(),
+            )
+            .unwrap(),
             camera_model: "camsim nikon-5100".into(),
-            calibrations: vec![
-                (
-                    Illuminant::A,
-                    [[0.9, -0.2, 0.1], [-0.3, 1.2, 0.05], [0.0, 0.1, 0.7]],
-                ),
-                (
-                    Illuminant::D65,
-                    [[1.1, -0.4, 0.0], [-0.5, 1.3, 0.2], [-0.1, 0.2, 0.9]],
-                ),
-            ],
-            as_shot_neutral: Some([0.45, 1.0, 0.7]),
+            colour: DngColour {
+                calibrations: vec![
+                    ColourCalibration::new(
+                        Illuminant::A,
+                        [[0.9, -0.2, 0.1], [-0.3, 1.2, 0.05], [0.0, 0.1, 0.7]],
+                    ),
+                    ColourCalibration::new(
+                        Illuminant::D65,
+                        [[1.1, -0.4, 0.0], [-0.5, 1.3, 0.2], [-0.1, 0.2, 0.9]],
+                    ),
+                ],
+                as_shot_neutral: Some([0.45, 1.0, 0.7]),
+                ..DngColour::default()
+            },
         }
     }
 
@@ -813,12 +1028,22 @@ mod tests {
         let d = sample();
         let bytes = d.encode().unwrap();
         let back = Dng::decode(&bytes).unwrap();
-        assert_eq!(back.raw, d.raw);
-        assert_eq!(back.black_level, d.black_level);
-        assert_eq!(back.pattern, d.pattern);
-        assert_eq!(back.calibrations[1].0, Illuminant::D65);
-        assert!((back.calibrations[1].1[1][1] - 1.3).abs() < 1e-4);
-        assert!((back.as_shot_neutral.unwrap()[0] - 0.45).abs() < 1e-6);
+        assert_eq!(back.image, d.image);
+        let c = &back.colour.calibrations[1];
+        assert_eq!(c.illuminant, Illuminant::D65);
+        assert!((c.color_matrix[1][1] - 1.3).abs() < 1e-4);
+        assert!((back.colour.as_shot_neutral.unwrap()[0] - 0.45).abs() < 1e-6);
+    }
+
+    #[test]
+    fn forward_matrix_camera_calibration_and_analog_balance_round_trip() {
+        let mut d = sample();
+        let m = [[0.5, 0.25, 0.125], [0.0, 1.0, 0.0], [0.1, 0.2, 0.7]];
+        d.colour.calibrations[0].forward_matrix = Some(m);
+        d.colour.calibrations[1].camera_calibration = Some(m);
+        d.colour.analog_balance = Some([1.0, 0.5, 1.0]);
+        let back = Dng::decode(&d.encode().unwrap()).unwrap();
+        assert_eq!(back.colour, d.colour);
     }
 
     #[test]
@@ -826,13 +1051,49 @@ mod tests {
         // Found by the damaged-DNG fuzz body: a neutral of 1e-7 was written as 0 / 1e6,
         // which the reader then refused.
         let mut d = sample();
-        d.as_shot_neutral = Some([1e-7, 1.0, 0.7]);
-        assert!(d.encode().unwrap_err().contains("as-shot neutral"));
-        d.as_shot_neutral = Some([0.5, 5000.0, 0.7]);
+        d.colour.as_shot_neutral = Some([1e-7, 1.0, 0.7]);
+        assert!(matches!(
+            d.encode().unwrap_err(),
+            FormatError::OutOfRange {
+                field: "as-shot neutral",
+                ..
+            }
+        ));
+        d.colour.as_shot_neutral = Some([0.5, 5000.0, 0.7]);
         assert!(d.encode().is_err());
-        d.as_shot_neutral = Some([1e-6, 4294.0, 0.7]);
+        d.colour.as_shot_neutral = Some([1e-6, 4294.0, 0.7]);
         let back = Dng::decode(&d.encode().unwrap()).unwrap();
-        assert_eq!(back.as_shot_neutral, Some([1e-6, 4294.0, 0.7]));
+        assert_eq!(back.colour.as_shot_neutral, Some([1e-6, 4294.0, 0.7]));
+    }
+
+    #[test]
+    fn colour_converts_to_a_calibration_and_back() {
+        let m = isp_core::colour::LINEAR_SRGB_TO_XYZ;
+        let white = colour::xy_to_xyz(colour::D65_XY).unwrap();
+        let c = ColourCalibration::from_camera_to_xyz(Illuminant::D65, &m, white).unwrap();
+        // Adobe's scale: the illuminant's white has a largest camera channel of 1.
+        let cam = colour::mat3_mul_vec(&c.color_matrix, white);
+        assert!((cam.iter().copied().fold(0.0, f64::max) - 1.0).abs() < 1e-12);
+        let colour = DngColour {
+            calibrations: vec![c],
+            as_shot_neutral: Some([0.5, 1.0, 0.8]),
+            ..DngColour::default()
+        };
+        assert_eq!(colour.as_shot_gains(), Some([2.0, 1.0, 1.25]));
+        let cal = colour.to_calibration().unwrap().unwrap();
+        // The scale does not change the colour: the CCM for neutral gains is the identity.
+        let ccm = cal.ccm(6504.0, [1.0; 3]).unwrap();
+        for (i, row) in ccm.iter().enumerate() {
+            for (j, v) in row.iter().enumerate() {
+                assert!((v - if i == j { 1.0 } else { 0.0 }).abs() < 2e-3, "{ccm:?}");
+            }
+        }
+        let unknown = DngColour {
+            calibrations: vec![ColourCalibration::new(Illuminant::Other(0), m)],
+            ..DngColour::default()
+        };
+        assert!(unknown.to_calibration().is_err());
+        assert_eq!(DngColour::default().to_calibration().unwrap(), None);
     }
 
     #[test]
@@ -846,12 +1107,19 @@ mod tests {
     #[test]
     fn damaged_bytes_never_panic() {
         let bytes = sample().encode().unwrap();
-        let mut rng = crate::tracer::sampling::Rng::new(3, 3);
+        // A small xorshift: this crate has no random-number dependency.
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
         for _ in 0..20000 {
             let mut b = bytes.clone();
-            for _ in 0..1 + rng.next_u32() % 4 {
-                let i = rng.next_u32() as usize % b.len();
-                b[i] = rng.next_u32() as u8;
+            for _ in 0..1 + next() % 4 {
+                let i = next() as usize % b.len();
+                b[i] = next() as u8;
             }
             let _ = Dng::decode(&b);
         }

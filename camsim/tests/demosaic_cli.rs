@@ -3,9 +3,10 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use host_tracer::demosaic_cmd::{cpsnr, mosaic_from_rgb, Method};
-use host_tracer::imageio::{self, Image};
+use camsim::demosaic::{mosaic_from_rgb, Demosaic as Method};
+use isp_core::metrics::cpsnr;
 use isp_core::CfaPattern;
+use raw_formats::image::{self as imageio, Image};
 
 fn camsim(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_camsim"))
@@ -215,7 +216,7 @@ fn bench_reports_cpsnr_and_speed() {
     // Independent CPSNR of bilinear on image a.
     let mosaic = mosaic_from_rgb(&rgb, CfaPattern::Rggb, 1);
     let mut out = vec![0u16; 3 * w * h];
-    Method::Bilinear
+    Method::BILINEAR
         .run(&mosaic, w, h, CfaPattern::Rggb, &mut out)
         .unwrap();
     let (mut se, mut n) = (0.0, 0.0);

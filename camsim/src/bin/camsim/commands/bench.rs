@@ -1,0 +1,161 @@
+//! `camsim bench demosaic` and `camsim bench render`: accuracy against speed, with progress on
+//! stderr.
+
+use std::path::PathBuf;
+
+use camsim::demosaic::{self, Demosaic};
+use camsim::Error;
+use clap::{Args, Subcommand};
+use host_tracer::render_bench::{bench, table, BenchSettings};
+
+use crate::progress::Progress;
+
+#[derive(Subcommand)]
+pub enum BenchCommand {
+    /// CPSNR on an image set and single-thread Mpix/s for every demosaicing method.
+    Demosaic(BenchDemosaicArgs),
+    /// What each optical feature (thin lens, aperture shape, chromatic aberration, motion,
+    /// spectral rendering, distortion) costs the path tracer, against the pinhole.
+    Render(BenchRenderArgs),
+}
+
+#[derive(Args)]
+pub struct BenchDemosaicArgs {
+    /// Folder of 8-bit RGB PNG images (data/kodak, data/mcmaster).
+    #[arg(long, default_value = "data/kodak")]
+    dataset: PathBuf,
+    /// Threads for the throughput measurement (only single-thread runs are measured so far).
+    #[arg(long, default_value_t = 1)]
+    threads: usize,
+    /// Sample depth: 8 or 16; both when not given.
+    #[arg(long)]
+    bits: Option<u8>,
+    /// Measure only this method (repeatable); every method when not given.
+    #[arg(long = "method", value_name = "METHOD")]
+    methods: Vec<String>,
+    /// Print a JSON list of {method, bits, cpsnr_db, mpix_per_s} instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Args)]
+pub struct BenchRenderArgs {
+    /// Built-in scene or scene TOML file (RGB colours; the spectral variant converts them).
+    #[arg(long, default_value = "cornell-box")]
+    scene: String,
+    /// Image width.
+    #[arg(long, default_value_t = 256)]
+    width: u32,
+    /// Image height.
+    #[arg(long, default_value_t = 256)]
+    height: u32,
+    /// Samples per pixel of each render.
+    #[arg(long, default_value_t = 16)]
+    spp: u32,
+    /// Worker threads (0: one per core).
+    #[arg(long, default_value_t = 1)]
+    threads: usize,
+    /// Renders per variant; the fastest is reported.
+    #[arg(long, default_value_t = 3)]
+    repeats: u32,
+    /// Aperture radius of the thin-lens variants, in scene units.
+    #[arg(
+        long,
+        default_value_t = 0.1,
+        value_name = "R",
+        allow_hyphen_values = true
+    )]
+    aperture_radius: f32,
+    /// Print a JSON list of {variant, what, msamples_per_s, relative_time, mean_rgb}.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Runs a `camsim bench` subcommand.
+pub fn run(command: &BenchCommand) -> Result<String, Error> {
+    match command {
+        BenchCommand::Demosaic(args) => bench_demosaic(args),
+        BenchCommand::Render(args) => bench_render(args),
+    }
+}
+
+fn json<T: serde::Serialize>(value: &T) -> Result<String, Error> {
+    Ok(serde_json::to_string_pretty(value).map_err(|e| Error::Message(e.to_string()))? + "\n")
+}
+
+fn bench_render(args: &BenchRenderArgs) -> Result<String, Error> {
+    let scene = host_tracer::tracer::scene_file::load(&args.scene)?;
+    let settings = BenchSettings {
+        width: args.width,
+        height: args.height,
+        spp: args.spp,
+        threads: args.threads,
+        repeats: args.repeats,
+        aperture_radius: args.aperture_radius,
+    };
+    let mut progress = Progress::new("bench render");
+    let rows = bench(&scene, &settings, &mut |what| progress.step(what))?;
+    progress.finish();
+    if args.json {
+        return json(&rows);
+    }
+    Ok(table(&rows, &scene.name, &settings))
+}
+
+fn bench_demosaic(args: &BenchDemosaicArgs) -> Result<String, Error> {
+    if args.threads != 1 {
+        return Err(Error::Option {
+            option: "--threads",
+            value: args.threads.to_string(),
+            allowed: "1: only single-thread throughput is measured so far".into(),
+        });
+    }
+    let depths = match args.bits {
+        None => vec![8, 16],
+        Some(b @ (8 | 16)) => vec![b],
+        Some(b) => {
+            return Err(Error::Option {
+                option: "--bits",
+                value: b.to_string(),
+                allowed: "8 or 16".into(),
+            })
+        }
+    };
+    let methods = if args.methods.is_empty() {
+        Demosaic::ALL.to_vec()
+    } else {
+        args.methods
+            .iter()
+            .map(|m| Demosaic::parse(m))
+            .collect::<Result<Vec<_>, _>>()?
+    };
+    let mut progress = Progress::new("bench");
+    let mut rows = Vec::new();
+    for bits in depths {
+        rows.extend(demosaic::bench(
+            &args.dataset,
+            bits,
+            &methods,
+            &mut |what| progress.step(what),
+        )?);
+    }
+    progress.finish();
+    if args.json {
+        return json(&rows);
+    }
+    let mut out = format!(
+        "{}\n{:<18} {:>4} {:>10} {:>10}\n",
+        args.dataset.display(),
+        "method",
+        "bits",
+        "CPSNR dB",
+        "Mpix/s"
+    );
+    for r in rows {
+        out.push_str(&format!(
+            "{:<18} {:>4} {:>10.2} {:>10.1}\n",
+            r.method, r.bits, r.cpsnr_db, r.mpix_per_s
+        ));
+    }
+    Ok(out)
+}

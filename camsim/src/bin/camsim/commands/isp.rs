@@ -1,0 +1,171 @@
+//! `camsim isp`: a raw mosaic file (DNG, or a PNG/PGM mosaic) through isp-core's pipeline to
+//! an sRGB image, printing the stages run, the AWB estimate and the time each stage costs. A
+//! DNG gives the pattern, levels, as-shot white balance and colour matrices; flags and the
+//! config file override them.
+
+use std::path::PathBuf;
+
+use camsim::develop::{develop, RawInput};
+use camsim::isp_options::{self as options, IspOptions, WhiteBalance};
+use camsim::Error;
+use clap::Args;
+use raw_formats::calibration::CalibrationFile;
+
+/// The options of `camsim isp`. Every processing option can also come from `--config FILE`
+/// (see [`crate::isp_options`]); a flag given here wins over the file.
+#[derive(Args, Debug, Clone)]
+pub struct IspArgs {
+    /// Input: a DNG (uncompressed CFA), or a single-channel 8- or 16-bit PNG or PGM mosaic.
+    #[arg(long)]
+    pub input: PathBuf,
+    /// Output sRGB image (.png or .ppm).
+    #[arg(long)]
+    pub output: PathBuf,
+    /// TOML file of processing options, keyed by these flags' names (plus an `[lsc]` grid and
+    /// a `defects` list); flags given on the command line win.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// CFA pattern by the top-left 2x2 block: RGGB, BGGR, GRBG or GBRG [default: RGGB].
+    #[arg(long)]
+    pub pattern: Option<String>,
+    /// Bits of raw data in each sample, 8..=16 [default: the file's depth].
+    #[arg(long)]
+    pub bits: Option<u8>,
+    /// Black level: one value, or four (one per 2x2 CFA position, row by row), comma-separated
+    /// [default: 0].
+    #[arg(long)]
+    pub black_level: Option<String>,
+    /// White level [default: 2^bits - 1].
+    #[arg(long)]
+    pub white_level: Option<u16>,
+    /// ISO / digital gain, [0, 64) [default: 1].
+    #[arg(long)]
+    pub gain: Option<f32>,
+    /// White-balance gains R,G,B, each in [0, 16) [default: 1,1,1].
+    #[arg(long, conflicts_with = "awb")]
+    pub wb: Option<String>,
+    /// Automatic white balance: grey-world, white-patch, shades-of-grey or grey-edge.
+    #[arg(long)]
+    pub awb: Option<String>,
+    /// Colour matrix, camera RGB to linear sRGB: nine numbers row by row [default: identity].
+    #[arg(long, allow_hyphen_values = true)]
+    pub ccm: Option<String>,
+    /// Demosaicing: nearest, bilinear or mhc [default: bilinear] (directional is whole-frame
+    /// only so far: `camsim demosaic`).
+    #[arg(long)]
+    pub demosaic: Option<String>,
+    /// Lens distortion to correct: k1,k2,p1,p2 or k1,k2,p1,p2,k3 (OpenCV's order) [default: off].
+    #[arg(long, allow_hyphen_values = true)]
+    pub distortion: Option<String>,
+    /// Camera matrix of the distortion: fx,fy,cx,cy in pixels [default: fx = fy = the larger
+    /// side, principal point at the centre].
+    #[arg(long, allow_hyphen_values = true)]
+    pub camera_matrix: Option<String>,
+    /// Denoise strength in linear units, [0, 1]; 0 is off [default: 0].
+    #[arg(long)]
+    pub denoise: Option<f32>,
+    /// Dynamic defective-pixel threshold in raw units [default: off].
+    #[arg(long)]
+    pub dpc_threshold: Option<u16>,
+    /// Look: neutral, vivid, muted, mono or high-contrast [default: neutral].
+    #[arg(long)]
+    pub look: Option<String>,
+    /// Colour calibration file from `camsim calibrate`: the colour matrix then follows the
+    /// white balance's colour temperature [default: the DNG's ColorMatrix tags, if any].
+    #[arg(long)]
+    pub calibration: Option<PathBuf>,
+    /// float (the reference) or fixed (the firmware path) [default: float].
+    #[arg(long)]
+    pub path: Option<String>,
+    /// Output depth: 8 or 16 [default: 8].
+    #[arg(long)]
+    pub out_bits: Option<u8>,
+}
+
+impl IspArgs {
+    /// The processing options given as flags.
+    pub fn flag_options(&self) -> Result<IspOptions, Error> {
+        let list = |text: &Option<String>, what: &str, counts: &[usize]| {
+            text.as_deref()
+                .map(|t| options::numbers(t, what, counts))
+                .transpose()
+        };
+        let white_balance = match (&self.wb, &self.awb) {
+            (Some(_), _) => list(&self.wb, "--wb", &[3])?
+                .map(|g| WhiteBalance::Gains([g[0] as f32, g[1] as f32, g[2] as f32])),
+            (None, Some(name)) => Some(WhiteBalance::Auto(options::awb(name, "--awb")?)),
+            (None, None) => None,
+        };
+        Ok(IspOptions {
+            pattern: self
+                .pattern
+                .as_deref()
+                .map(|t| options::pattern(t, "--pattern"))
+                .transpose()?,
+            bits: self.bits,
+            black_level: list(&self.black_level, "--black-level", &[1, 4])?
+                .map(|v| options::black_levels(v, "--black-level"))
+                .transpose()?,
+            white_level: self.white_level,
+            gain: self.gain,
+            white_balance,
+            ccm: list(&self.ccm, "--ccm", &[9])?
+                .map(|v| options::matrix(v, "--ccm"))
+                .transpose()?,
+            demosaic: self
+                .demosaic
+                .as_deref()
+                .map(|t| options::demosaic(t, "--demosaic"))
+                .transpose()?,
+            denoise: self.denoise,
+            dpc_threshold: self.dpc_threshold,
+            defects: None,
+            lsc: None,
+            look: self
+                .look
+                .as_deref()
+                .map(|t| options::look(t, "--look"))
+                .transpose()?,
+            fixed: self
+                .path
+                .as_deref()
+                .map(|t| options::path(t, "--path"))
+                .transpose()?,
+            out_bits: self
+                .out_bits
+                .map(|b| options::out_bits(b, "--out-bits"))
+                .transpose()?,
+            distortion: list(&self.distortion, "--distortion", &[4, 5])?
+                .map(|v| options::distortion(v, "--distortion"))
+                .transpose()?,
+            camera_matrix: list(&self.camera_matrix, "--camera-matrix", &[4])?
+                .map(|v| options::camera_matrix(v, "--camera-matrix"))
+                .transpose()?,
+        })
+    }
+
+    /// The options to run with: flags, then the config file, each `None` left to its default.
+    pub fn options(&self) -> Result<IspOptions, Error> {
+        let flags = self.flag_options()?;
+        Ok(match &self.config {
+            Some(file) => flags.or(options::from_file(file)?),
+            None => flags,
+        })
+    }
+}
+
+/// Runs `camsim isp`; returns the report text.
+pub fn run(args: &IspArgs) -> Result<String, Error> {
+    let input = RawInput::read(&args.input)?;
+    let options = args.options()?;
+    let calibration = match &args.calibration {
+        Some(path) => Some(CalibrationFile::read(path)?.to_isp()?),
+        None => None,
+    };
+    let (report, rgb) = develop(&input, &options, calibration).map_err(|e| match e {
+        e @ Error::SampleRange { .. } => e.in_file(&args.input),
+        e => e,
+    })?;
+    raw_formats::image::write(&args.output, &rgb)?;
+    Ok(report.to_text() + &format!("wrote {}\n", args.output.display()))
+}

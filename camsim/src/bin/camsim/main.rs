@@ -1,0 +1,73 @@
+//! `camsim`: the camera simulator's command line. The argument types, terminal output and
+//! progress bars live here; the work is in the libraries (`camsim`, `host-tracer`,
+//! `raw-formats`, `isp-core`, `optics-core`), which never print.
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+mod cli_args;
+mod commands;
+mod progress;
+
+use commands::{bench, calibrate, demo, demosaic, dof, isp, render};
+
+#[derive(Parser)]
+#[command(
+    name = "camsim",
+    version,
+    about = "Camera simulator and image signal processor"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Depth of field, hyperfocal distance, focus position and magnification of a thin lens.
+    Dof(dof::DofArgs),
+    /// Demosaic a single-channel 8- or 16-bit Bayer mosaic (PNG or PGM) into RGB of the same depth.
+    Demosaic(demosaic::DemosaicArgs),
+    /// Run the ISP (defects, black level, lens shading, gain, white balance, demosaic, lens
+    /// distortion, denoise, colour matrix, tone, sRGB) on a raw mosaic (PNG or PGM) and write
+    /// an sRGB image; options from flags or a TOML file (--config).
+    Isp(Box<isp::IspArgs>),
+    /// Render a scene (built-in cornell-box or demo, or a TOML file) with the path tracer to
+    /// linear RGB radiance (OpenEXR) and an sRGB preview.
+    Render(Box<render::RenderArgs>),
+    /// The whole camera on a built-in scene: render, sensor, raw DNG, ISP (float and fixed),
+    /// ground truth, side-by-side comparison and a report (PSNR, ColorChecker error, AWB).
+    Demo(Box<demo::DemoArgs>),
+    /// Fit a camera's colour matrix on a rendered ColorChecker (under A and D65 by default)
+    /// and write it for camsim isp and camsim demo.
+    Calibrate(calibrate::CalibrateArgs),
+    /// Measure accuracy against speed.
+    Bench {
+        #[command(subcommand)]
+        what: bench::BenchCommand,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match &cli.command {
+        Command::Dof(args) => dof::run(args),
+        Command::Demosaic(args) => demosaic::run(args),
+        Command::Isp(args) => isp::run(args),
+        Command::Render(args) => render::run(args),
+        Command::Demo(args) => demo::run(args),
+        Command::Calibrate(args) => calibrate::run(args),
+        Command::Bench { what } => bench::run(what),
+    };
+    match result {
+        Ok(out) => {
+            print!("{out}");
+            ExitCode::SUCCESS
+        }
+        Err(error) => {
+            eprintln!("error: {error}");
+            ExitCode::from(2)
+        }
+    }
+}

@@ -1,0 +1,375 @@
+//! Developing a raw frame on the host: a [`RawImage`] (from a DNG or a PNG/PGM mosaic) and
+//! [`IspOptions`] (flags, a config file, a DNG's tags) become an isp-core [`IspConfig`], run
+//! through the float or fixed pipeline to an sRGB [`Image`], with a report of the stages, the
+//! AWB estimate and the time each stage costs. `camsim isp` and `camsim demo` both run it.
+//!
+//! Stage times come from ablation: the pipeline is fused (every stage runs per row in one
+//! pass), so each stage's cost is the time of a run with it minus the time of a run without it,
+//! stages added in pipeline order, each run timed best of three.
+
+use std::path::Path;
+use std::time::Instant;
+
+use isp_core::ccm::Calibration;
+use isp_core::colour::LINEAR_SRGB_TO_XYZ;
+use isp_core::demosaic::Method;
+use isp_core::distortion::{BrownConrady, LensDistortion};
+use isp_core::dpc::DpcConfig;
+use isp_core::frame::{RawFrame, RgbViewMut};
+use isp_core::lsc::LensShading;
+use isp_core::pipeline::{FixedPipeline, FloatPipeline, IspConfig, OutputSample};
+use isp_core::tone::Look;
+use isp_core::wb::{self, AwbEstimate};
+use isp_core::IspError;
+use raw_formats::dng::Dng;
+use raw_formats::{FormatError, Image, RawImage};
+
+use crate::error::Error;
+use crate::isp_options::{IspOptions, WhiteBalance};
+
+/// What a run did, for the printed report.
+#[derive(Debug, Clone)]
+pub struct IspReport {
+    /// Stage names in the order run.
+    pub stages: Vec<&'static str>,
+    /// The AWB estimate, if AWB ran.
+    pub awb: Option<AwbEstimate>,
+    /// Gains used.
+    pub wb_gains: [f32; 3],
+    /// The distortion corrected and the input rows its window holds, if on.
+    pub distortion: Option<(LensDistortion, usize)>,
+    /// Whether the fixed-point path ran.
+    pub fixed: bool,
+    /// Milliseconds per stage (ablation), in pipeline order.
+    pub stage_ms: Vec<(&'static str, f64)>,
+    /// Milliseconds of the whole pipeline.
+    pub total_ms: f64,
+}
+
+impl IspReport {
+    /// The readable report.
+    pub fn to_text(&self) -> String {
+        let path = if self.fixed { "fixed" } else { "float" };
+        let mut out = format!("path: {path}\nstages: {}\n", self.stages.join(" -> "));
+        if let Some(a) = &self.awb {
+            out += &format!(
+                "awb: gains R {:.4} G {:.4} B {:.4}, estimated CCT {:.0} K\n",
+                a.gains[0], a.gains[1], a.gains[2], a.cct_k
+            );
+        } else {
+            out += &format!(
+                "white balance: gains R {:.4} G {:.4} B {:.4}\n",
+                self.wb_gains[0], self.wb_gains[1], self.wb_gains[2]
+            );
+        }
+        if let Some((lens, window)) = &self.distortion {
+            let [fx, fy, cx, cy] = lens.camera();
+            let [k1, k2, p1, p2, k3] = lens.model().to_opencv();
+            out += &format!(
+                "distortion: k1 {k1} k2 {k2} p1 {p1} p2 {p2} k3 {k3}, camera fx {fx} fy {fy} cx {cx} cy {cy}, window {window} rows\n"
+            );
+        }
+        out += "time per stage (ms, by ablation):\n";
+        for (name, ms) in &self.stage_ms {
+            out += &format!("  {name:<28} {ms:>9.2}\n");
+        }
+        out += &format!("  {:<28} {:>9.2}\n", "pipeline total", self.total_ms);
+        out
+    }
+}
+
+/// A raw frame to develop and what its file says beyond the samples.
+#[derive(Debug, Clone)]
+pub struct RawInput {
+    /// The frame, with the levels and pattern the file states (defaults for a plain mosaic).
+    pub raw: RawImage,
+    /// Bits per sample of the file's container (16 for camsim's DNGs, 8 or 16 for PNG/PGM):
+    /// the most `--bits` may claim.
+    pub container_bits: u8,
+    /// Options the file states (pattern, bits, levels, as-shot white balance).
+    pub defaults: IspOptions,
+    /// The file's colour calibration.
+    pub calibration: Option<Calibration>,
+}
+
+impl RawInput {
+    /// A frame whose file states nothing beyond its samples and depth (a PNG/PGM mosaic).
+    pub fn plain(raw: RawImage) -> Self {
+        Self {
+            container_bits: raw.bits,
+            raw,
+            defaults: IspOptions::default(),
+            calibration: None,
+        }
+    }
+
+    /// Reads a DNG, or a single-channel PNG/PGM mosaic (chosen by the extension).
+    pub fn read(path: &Path) -> Result<Self, FormatError> {
+        let is_dng = path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("dng"));
+        if !is_dng {
+            return Ok(Self::plain(raw_formats::image::read_mosaic(path)?));
+        }
+        let dng = Dng::read(path)?;
+        let calibration = dng.colour.to_calibration().map_err(|e| e.in_file(path))?;
+        let image = &dng.image;
+        let defaults = IspOptions {
+            pattern: Some(image.pattern),
+            bits: Some(image.bits),
+            black_level: Some(image.black_level.to_vec()),
+            white_level: Some(image.white_level),
+            white_balance: dng.colour.as_shot_gains().map(WhiteBalance::Gains),
+            ..IspOptions::default()
+        };
+        Ok(Self {
+            raw: dng.image,
+            container_bits: 16,
+            defaults,
+            calibration,
+        })
+    }
+}
+
+/// Develops `input` with `options` (each unset option from the file's defaults, then the
+/// built-in default) and `calibration` (else the file's): the report and the RGB image.
+pub fn develop(
+    input: &RawInput,
+    options: &IspOptions,
+    calibration: Option<Calibration>,
+) -> Result<(IspReport, Image), Error> {
+    let options = options.clone().or(input.defaults.clone());
+    let calibration = calibration.or(input.calibration);
+    let image = &input.raw;
+    let pattern = options.pattern.unwrap_or(image.pattern);
+    let bits = options.bits.unwrap_or(input.container_bits);
+    if !(8..=16).contains(&bits) || bits > input.container_bits {
+        return Err(Error::Option {
+            option: "--bits",
+            value: bits.to_string(),
+            allowed: format!(
+                "8..=16 and at most the file's depth {}",
+                input.container_bits
+            ),
+        });
+    }
+    let max = ((1u32 << bits) - 1) as u16;
+    if let Some(v) = image.samples.iter().find(|v| **v > max) {
+        return Err(Error::SampleRange { sample: *v, bits });
+    }
+    let black = options.black_level.clone().unwrap_or(vec![0]);
+    let black: [u16; 4] = std::array::from_fn(|i| black[if black.len() == 1 { 0 } else { i }]);
+    let white = options.white_level.unwrap_or(max);
+    let (w, h) = (image.width, image.height);
+    let raw = RawFrame::new(&image.samples, w, h, w, bits, pattern, black, white).map_err(|e| {
+        Error::in_stage("raw frame (check --bits, --black-level, --white-level)", e)
+    })?;
+
+    let mut awb = None;
+    let wb_gains = match options.white_balance {
+        Some(WhiteBalance::Gains(g)) => g,
+        Some(WhiteBalance::Auto(method)) => {
+            let to_xyz = match &calibration {
+                Some(c) => c.camera_to_xyz(6504.0)?,
+                None => LINEAR_SRGB_TO_XYZ,
+            };
+            let mut est =
+                wb::estimate(&raw, method, &to_xyz).map_err(|e| Error::in_stage("--awb", e))?;
+            if let Some(c) = &calibration {
+                est.cct_k = c.cct_of_neutral(est.neutral)?;
+            }
+            awb = Some(est);
+            est.gains
+        }
+        None => [1.0; 3],
+    };
+    // With a calibration and no explicit matrix, the CCM follows the white balance.
+    let ccm = match (options.ccm, &calibration) {
+        (Some(m), _) => m,
+        (None, Some(c)) => {
+            c.ccm_for_white_balance(wb_gains)
+                .map_err(|e| Error::in_stage("colour matrix from the calibration", e))?
+                .ccm
+        }
+        (None, None) => isp_core::pipeline::IDENTITY,
+    };
+    let demosaic = options.demosaic.unwrap_or(Method::Bilinear);
+    let defects = options.defects.clone().unwrap_or_default();
+    let lsc = options
+        .lsc
+        .as_ref()
+        .map(|g| LensShading::new(g.width, g.height, &g.gains_q12))
+        .transpose()
+        .map_err(|e| Error::in_stage("lsc", e))?;
+    let distortion = match options.distortion {
+        Some(d) => {
+            let [fx, fy, cx, cy] = options.camera_matrix.unwrap_or_else(|| {
+                let f = w.max(h) as f64;
+                [f, f, (w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0]
+            });
+            let model = BrownConrady::from_opencv(d).map_err(|source| Error::Optics {
+                option: "--distortion",
+                source,
+            })?;
+            Some(
+                LensDistortion::new(fx, fy, cx, cy, model)
+                    .map_err(|e| Error::in_stage("--camera-matrix", e))?,
+            )
+        }
+        None if options.camera_matrix.is_some() => {
+            return Err(Error::Needs {
+                option: "--camera-matrix",
+                needs: "--distortion (the coefficients to correct)",
+            })
+        }
+        None => None,
+    };
+    let config = IspConfig {
+        dpc: DpcConfig {
+            static_defects: &defects,
+            dynamic_threshold: options.dpc_threshold,
+        },
+        lsc,
+        gain: options.gain.unwrap_or(1.0),
+        wb_gains,
+        demosaic,
+        distortion,
+        denoise: options.denoise.unwrap_or(0.0),
+        ccm,
+        tone: options.look.unwrap_or(Look::Neutral).tone(),
+    };
+    config.validate()?;
+    let fixed = options.fixed.unwrap_or(false);
+    let out_bits = options.out_bits.unwrap_or(8);
+    let (mut report, rgb) = execute(&raw, &config, fixed, out_bits)?;
+    report.awb = awb;
+    Ok((report, rgb))
+}
+
+/// Runs the pipeline on `raw` with `config` (float or fixed path, 8- or 16-bit output) and
+/// times each stage by ablation; returns the report (with no AWB estimate) and the image.
+pub fn execute(
+    raw: &RawFrame<'_>,
+    config: &IspConfig<'_>,
+    fixed: bool,
+    out_bits: u8,
+) -> Result<(IspReport, Image), IspError> {
+    let raw = *raw;
+    let config = *config;
+    let (demosaic, distortion, wb_gains) = (config.demosaic, config.distortion, config.wb_gains);
+    let (w, h) = (raw.mosaic().width(), raw.mosaic().height());
+    let mut out = vec![0u16; w * h * 3];
+    let total_ms = if out_bits == 8 {
+        let mut out8 = vec![0u8; w * h * 3];
+        let ms = time_run(&raw, &config, fixed, &mut out8)?;
+        for (o, v) in out.iter_mut().zip(&out8) {
+            *o = *v as u16;
+        }
+        ms
+    } else {
+        time_run(&raw, &config, fixed, &mut out)?
+    };
+
+    // Cumulative configurations, one stage more each, in pipeline order; the base is what
+    // always runs. `true` marks the stages after demosaicing.
+    let mut c = IspConfig {
+        demosaic,
+        ..IspConfig::default()
+    };
+    let mut steps = vec![("black level+demosaic+encode", true, false, c)];
+    c.dpc = config.dpc;
+    steps.push(("defective pixels", config.dpc.is_active(), false, c));
+    c.lsc = config.lsc;
+    steps.push(("lens shading", config.lsc.is_some(), false, c));
+    c.gain = config.gain;
+    steps.push(("gain", config.gain != 1.0, false, c));
+    c.wb_gains = config.wb_gains;
+    steps.push(("white balance", config.wb_gains != [1.0; 3], false, c));
+    c.distortion = config.distortion;
+    let lens_on = config.distortion.is_some_and(|d| !d.is_identity());
+    steps.push(("distortion correction", lens_on, true, c));
+    c.denoise = config.denoise;
+    steps.push(("denoise", config.denoise > 0.0, true, c));
+    c.ccm = config.ccm;
+    steps.push((
+        "colour matrix",
+        config.ccm != isp_core::pipeline::IDENTITY,
+        true,
+        c,
+    ));
+    c.tone = config.tone;
+    steps.push(("tone", config.tone != Look::Neutral.tone(), true, c));
+    steps.retain(|s| s.1);
+    let mut stages = vec!["black level"];
+    stages.extend(steps[1..].iter().filter(|s| !s.2).map(|s| s.0));
+    stages.push(demosaic.name());
+    stages.extend(steps[1..].iter().filter(|s| s.2).map(|s| s.0));
+    stages.push("sRGB encode");
+    let mut stage_ms = Vec::new();
+    let mut previous = 0.0;
+    let mut scratch_out = vec![0u8; w * h * 3];
+    for (name, _, _, c) in &steps {
+        let ms = time_run(&raw, c, fixed, &mut scratch_out)?;
+        stage_ms.push((*name, (ms - previous).max(0.0)));
+        previous = ms;
+    }
+    let report = IspReport {
+        stages,
+        awb: None,
+        wb_gains,
+        distortion: distortion
+            .filter(|_| lens_on)
+            .map(|d| (d, d.window_rows(w, h))),
+        fixed,
+        stage_ms,
+        total_ms,
+    };
+    let rgb = Image {
+        width: w,
+        height: h,
+        channels: 3,
+        bits: out_bits,
+        data: out,
+    };
+    Ok((report, rgb))
+}
+
+/// Runs the whole frame, best of three, in milliseconds.
+fn time_run<O: OutputSample + Default>(
+    raw: &RawFrame<'_>,
+    config: &IspConfig<'_>,
+    fixed: bool,
+    out: &mut [O],
+) -> Result<f64, IspError> {
+    // One short-lived value on the stack: the variants' sizes do not matter.
+    #[allow(clippy::large_enum_variant)]
+    enum Runner<'a> {
+        Float(FloatPipeline<'a>, Vec<f32>),
+        // Boxed: the fixed pipeline carries 32 KiB of tables.
+        Fixed(Box<FixedPipeline<'a>>, Vec<u16>),
+    }
+    let (w, h) = (raw.mosaic().width(), raw.mosaic().height());
+    let len = config.scratch_len(w, h).ok_or(IspError::InvalidParameter {
+        name: "frame size",
+        allowed: "a scratch length that fits usize",
+    })?;
+    let bits = if O::BITS == 16 { 16 } else { 8 };
+    let mut runner = if fixed {
+        let p = FixedPipeline::new(config, bits)?;
+        Runner::Fixed(Box::new(p), vec![0; len])
+    } else {
+        let p = FloatPipeline::new(config)?;
+        Runner::Float(p, vec![0.0; len])
+    };
+    let mut best = f64::INFINITY;
+    for _ in 0..3 {
+        let mut view = RgbViewMut::new(out, w, h, 3 * w)?;
+        let start = Instant::now();
+        match &mut runner {
+            Runner::Float(p, scratch) => p.run(raw, 0..h, scratch, &mut view),
+            Runner::Fixed(p, scratch) => p.run(raw, 0..h, scratch, &mut view),
+        }?;
+        best = best.min(start.elapsed().as_secs_f64() * 1e3);
+    }
+    Ok(best)
+}

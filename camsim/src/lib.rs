@@ -1,0 +1,24 @@
+//! camsim: the workflows the `camsim` command runs, as a library the tests and other tools can
+//! call; the command line itself (argument types, terminal output, progress bars) is the
+//! binary in `src/bin/camsim/`, and nothing in this library prints.
+//!
+//! - [`develop`]: a raw frame ([`raw_formats::RawImage`]) through isp-core's pipeline to sRGB,
+//!   with options from flags, a config file ([`isp_options`]) and a DNG's tags, and stage times
+//!   by ablation (`camsim isp`, and the ISP step of `camsim demo`).
+//! - [`demo`]: the whole camera: render (host-tracer), sensor, DNG (raw-formats), ISP, truth,
+//!   measurements (`camsim demo`).
+//! - [`demosaic`]: isp-core's demosaicing methods on files and their accuracy against speed
+//!   (`camsim demosaic`, `camsim bench demosaic`).
+//! - [`dof`]: the depth-of-field calculator (`camsim dof`).
+//!
+//! Errors are [`Error`] values; quality figures come from [`isp_core::metrics`].
+#![warn(missing_docs)]
+
+pub mod demo;
+pub mod demosaic;
+pub mod develop;
+pub mod dof;
+mod error;
+pub mod isp_options;
+
+pub use error::Error;
