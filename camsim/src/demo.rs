@@ -336,10 +336,7 @@ pub fn run(
     config.iso = args.iso;
     config.exposure_s = args.exposure;
     config.frame_seed = args.seed;
-    // The sensor names its fields ("sensor adc_bits: ..."); here they are flags.
-    config
-        .validate()
-        .map_err(|e| Error::Message(e.replace("sensor ", "--")))?;
+    config.validate()?;
     let (awb_method, demosaic) = (args.awb, args.demosaic);
     std::fs::create_dir_all(&args.output)
         .map_err(|e| raw_formats::FormatError::io(&args.output, e))?;
@@ -438,8 +435,7 @@ pub fn run(
     // The truth's scale: a neutral under the scene illuminant with camera green g (in ISP
     // units) comes out of a perfect ISP with luminance g.
     let green_per_luminance = if spectral {
-        let bands = illuminant_bands(&args.illuminant)
-            .map_err(|e| Error::Message(format!("--illuminant: {e}")))?;
+        let bands = illuminant_bands(&args.illuminant)?;
         response.of_bands(&bands)[1] as f64 / bands_xyz(&bands)[1]
     } else {
         1.0

@@ -60,8 +60,11 @@ pub enum Error {
         /// The error.
         error: Box<Error>,
     },
-    /// A library that still reports in words refused: the tracer, the sensor model,
-    /// calibration and the ISP options file (typed errors there are still to come).
+    /// The tracer, the sensor model, the spectral tables or calibration refused.
+    Simulation(host_tracer::Error),
+    /// A processing option (flag or config file) was refused.
+    Options(crate::isp_options::OptionError),
+    /// A command-level refusal in words (a combination of flags that does not go together).
     Message(String),
 }
 
@@ -98,6 +101,8 @@ impl fmt::Display for Error {
                 "sample {sample} exceeds {bits}-bit range (pass the right --bits)"
             ),
             Self::InFile { path, error } => write!(f, "{}: {error}", path.display()),
+            Self::Simulation(e) => e.fmt(f),
+            Self::Options(e) => e.fmt(f),
             Self::Message(message) => f.write_str(message),
         }
     }
@@ -110,6 +115,8 @@ impl std::error::Error for Error {
             Self::Isp(e) | Self::InStage { source: e, .. } => Some(e),
             Self::Optics { source, .. } => Some(source),
             Self::InFile { error, .. } => Some(error.as_ref()),
+            Self::Simulation(e) => Some(e),
+            Self::Options(e) => Some(e),
             _ => None,
         }
     }
@@ -127,8 +134,14 @@ impl From<IspError> for Error {
     }
 }
 
-impl From<String> for Error {
-    fn from(message: String) -> Self {
-        Error::Message(message)
+impl From<host_tracer::Error> for Error {
+    fn from(e: host_tracer::Error) -> Self {
+        Error::Simulation(e)
+    }
+}
+
+impl From<crate::isp_options::OptionError> for Error {
+    fn from(e: crate::isp_options::OptionError) -> Self {
+        Error::Options(e)
     }
 }

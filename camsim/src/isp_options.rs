@@ -32,7 +32,7 @@
 //! for the 2x2 CFA positions row by row.
 
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use isp_core::demosaic::Method;
 use isp_core::dpc::Defect;
@@ -40,6 +40,95 @@ use isp_core::tone::Look;
 use isp_core::wb::AwbMethod;
 use isp_core::CfaPattern;
 use toml::{Spanned, Value};
+
+/// Where a refused option was given.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Place {
+    /// On the command line, e.g. `--wb`.
+    Flag(String),
+    /// In a config file, at a line and key (both unknown for a file that does not parse).
+    File {
+        /// The file.
+        file: PathBuf,
+        /// The line of the key's value.
+        line: Option<usize>,
+        /// The key.
+        key: Option<String>,
+    },
+}
+
+/// What is wrong with an option.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Problem {
+    /// The value is not one the option allows.
+    NotAllowed {
+        /// What is allowed.
+        allowed: String,
+        /// The value given.
+        got: String,
+    },
+    /// Refused for a reason in words (a wrong type, an unknown key, a component's refusal).
+    Invalid(String),
+}
+
+/// A refused processing option: where it was given and what is wrong with it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OptionError {
+    /// Where.
+    pub place: Place,
+    /// What.
+    pub problem: Problem,
+}
+
+impl OptionError {
+    fn not_allowed(what: &str, allowed: impl Into<String>, got: impl std::fmt::Display) -> Self {
+        Self {
+            place: Place::Flag(what.to_owned()),
+            problem: Problem::NotAllowed {
+                allowed: allowed.into(),
+                got: got.to_string(),
+            },
+        }
+    }
+
+    fn invalid(what: &str, reason: impl std::fmt::Display) -> Self {
+        Self {
+            place: Place::Flag(what.to_owned()),
+            problem: Problem::Invalid(reason.to_string()),
+        }
+    }
+}
+
+impl std::fmt::Display for OptionError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match (&self.place, &self.problem) {
+            (Place::Flag(flag), Problem::NotAllowed { allowed, got }) => {
+                write!(f, "{flag} must be {allowed} (got {got})")
+            }
+            (Place::Flag(flag), Problem::Invalid(reason)) => write!(f, "{flag}: {reason}"),
+            (Place::File { file, line, key }, problem) => {
+                write!(f, "{}", file.display())?;
+                if let Some(line) = line {
+                    write!(f, ":{line}")?;
+                }
+                if let Some(key) = key {
+                    write!(f, ": {key}")?;
+                }
+                match problem {
+                    Problem::NotAllowed { allowed, got } => {
+                        write!(f, ": must be {allowed} (got {got})")
+                    }
+                    Problem::Invalid(reason) => write!(f, ": {reason}"),
+                }
+            }
+        }
+    }
+}
+
+impl std::error::Error for OptionError {}
+
+/// The result type of the option parsers.
+pub type Result<T> = std::result::Result<T, OptionError>;
 
 /// How white balance is set.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -126,86 +215,92 @@ impl IspOptions {
 }
 
 /// Parses a CFA pattern name; `what` names the option in the error.
-pub fn pattern(text: &str, what: &str) -> Result<CfaPattern, String> {
-    text.parse()
-        .map_err(|_| format!("{what} must be one of RGGB, BGGR, GRBG, GBRG (got {text:?})"))
+pub fn pattern(text: &str, what: &str) -> Result<CfaPattern> {
+    text.parse().map_err(|_| {
+        OptionError::not_allowed(what, "one of RGGB, BGGR, GRBG, GBRG", format!("{text:?}"))
+    })
 }
 
 /// Parses the name of a demosaicing method the pipeline runs.
-pub fn demosaic(text: &str, what: &str) -> Result<Method, String> {
+pub fn demosaic(text: &str, what: &str) -> Result<Method> {
     text.parse()
         .ok()
         .filter(|m: &Method| m.streams())
-        .ok_or_else(|| format!("{what} must be one of nearest, bilinear, mhc (got {text:?})"))
+        .ok_or_else(|| {
+            OptionError::not_allowed(what, "one of nearest, bilinear, mhc", format!("{text:?}"))
+        })
 }
 
 /// Parses a look name.
-pub fn look(text: &str, what: &str) -> Result<Look, String> {
-    text.parse().map_err(|e| format!("{what}: {e}"))
+pub fn look(text: &str, what: &str) -> Result<Look> {
+    text.parse().map_err(|e| OptionError::invalid(what, e))
 }
 
 /// Parses an AWB method name.
-pub fn awb(text: &str, what: &str) -> Result<AwbMethod, String> {
-    AwbMethod::from_name(text).map_err(|e| format!("{what}: {e}"))
+pub fn awb(text: &str, what: &str) -> Result<AwbMethod> {
+    AwbMethod::from_name(text).map_err(|e| OptionError::invalid(what, e))
 }
 
 /// `float` or `fixed`, as whether the fixed path runs.
-pub fn path(text: &str, what: &str) -> Result<bool, String> {
+pub fn path(text: &str, what: &str) -> Result<bool> {
     match text {
         "float" => Ok(false),
         "fixed" => Ok(true),
-        other => Err(format!("{what} must be float or fixed (got {other:?})")),
+        other => Err(OptionError::not_allowed(
+            what,
+            "float or fixed",
+            format!("{other:?}"),
+        )),
     }
 }
 
 /// 8 or 16.
-pub fn out_bits(bits: u8, what: &str) -> Result<u8, String> {
+pub fn out_bits(bits: u8, what: &str) -> Result<u8> {
     match bits {
         8 | 16 => Ok(bits),
-        b => Err(format!("{what} must be 8 or 16 (got {b})")),
+        b => Err(OptionError::not_allowed(what, "8 or 16", b)),
     }
 }
 
 /// Checks a count of finite numbers against the allowed counts.
-pub fn count_of(values: Vec<f64>, what: &str, counts: &[usize]) -> Result<Vec<f64>, String> {
+pub fn count_of(values: Vec<f64>, what: &str, counts: &[usize]) -> Result<Vec<f64>> {
     if counts.contains(&values.len()) && values.iter().all(|v| v.is_finite()) {
         Ok(values)
     } else {
-        Err(format!(
-            "{what} must be {} finite numbers (got {})",
-            counts
-                .iter()
-                .map(|c| c.to_string())
-                .collect::<Vec<_>>()
-                .join(" or "),
-            values.len()
+        let counts: Vec<String> = counts.iter().map(|c| c.to_string()).collect();
+        Err(OptionError::not_allowed(
+            what,
+            format!("{} finite numbers", counts.join(" or ")),
+            values.len(),
         ))
     }
 }
 
 /// Comma-separated numbers from a flag.
-pub fn numbers(text: &str, what: &str, counts: &[usize]) -> Result<Vec<f64>, String> {
-    let values: Result<Vec<f64>, _> = text.split(',').map(|s| s.trim().parse::<f64>()).collect();
-    let values =
-        values.map_err(|_| format!("{what} must be comma-separated numbers (got {text:?})"))?;
+pub fn numbers(text: &str, what: &str, counts: &[usize]) -> Result<Vec<f64>> {
+    let values: std::result::Result<Vec<f64>, _> =
+        text.split(',').map(|s| s.trim().parse::<f64>()).collect();
+    let values = values.map_err(|_| {
+        OptionError::not_allowed(what, "comma-separated numbers", format!("{text:?}"))
+    })?;
     count_of(values, what, counts)
 }
 
 /// Black levels as integers in `0..=65535`.
-pub fn black_levels(values: Vec<f64>, what: &str) -> Result<Vec<u16>, String> {
+pub fn black_levels(values: Vec<f64>, what: &str) -> Result<Vec<u16>> {
     let values = count_of(values, what, &[1, 4])?;
     values
         .iter()
         .map(|v| {
             (v.fract() == 0.0 && (0.0..=65535.0).contains(v))
                 .then_some(*v as u16)
-                .ok_or_else(|| format!("{what} must be whole numbers in 0..=65535 (got {v})"))
+                .ok_or_else(|| OptionError::not_allowed(what, "whole numbers in 0..=65535", v))
         })
         .collect()
 }
 
 /// A 3x3 matrix from nine numbers, row by row.
-pub fn matrix(values: Vec<f64>, what: &str) -> Result<[[f32; 3]; 3], String> {
+pub fn matrix(values: Vec<f64>, what: &str) -> Result<[[f32; 3]; 3]> {
     let m = count_of(values, what, &[9])?;
     Ok(std::array::from_fn(|i| {
         std::array::from_fn(|j| m[3 * i + j] as f32)
@@ -213,13 +308,13 @@ pub fn matrix(values: Vec<f64>, what: &str) -> Result<[[f32; 3]; 3], String> {
 }
 
 /// Distortion coefficients `k1, k2, p1, p2[, k3]`.
-pub fn distortion(values: Vec<f64>, what: &str) -> Result<[f64; 5], String> {
+pub fn distortion(values: Vec<f64>, what: &str) -> Result<[f64; 5]> {
     let d = count_of(values, what, &[4, 5])?;
     Ok([d[0], d[1], d[2], d[3], d.get(4).copied().unwrap_or(0.0)])
 }
 
 /// Camera matrix entries `fx, fy, cx, cy`.
-pub fn camera_matrix(values: Vec<f64>, what: &str) -> Result<[f64; 4], String> {
+pub fn camera_matrix(values: Vec<f64>, what: &str) -> Result<[f64; 4]> {
     let c = count_of(values, what, &[4])?;
     Ok([c[0], c[1], c[2], c[3]])
 }
@@ -255,24 +350,41 @@ struct Field<'a> {
 }
 
 impl Field<'_> {
-    fn error(&self, what: impl std::fmt::Display) -> String {
+    fn place(&self) -> Place {
         let line = 1 + self.text[..self.value.span().start.min(self.text.len())]
             .matches('\n')
             .count();
-        format!("{}:{line}: {}: {what}", self.file.display(), self.key)
+        Place::File {
+            file: self.file.to_owned(),
+            line: Some(line),
+            key: Some(self.key.clone()),
+        }
     }
 
-    fn string(&self) -> Result<&str, String> {
+    fn error(&self, what: impl std::fmt::Display) -> OptionError {
+        OptionError {
+            place: self.place(),
+            problem: Problem::Invalid(what.to_string()),
+        }
+    }
+
+    fn string(&self) -> Result<&str> {
         self.value
             .get_ref()
             .as_str()
             .ok_or_else(|| self.error("expected a string"))
     }
 
-    fn integer(&self, max: i64) -> Result<i64, String> {
+    fn integer(&self, max: i64) -> Result<i64> {
         match self.value.get_ref().as_integer() {
             Some(v) if (0..=max).contains(&v) => Ok(v),
-            Some(v) => Err(self.error(format!("must be in 0..={max} (got {v})"))),
+            Some(v) => Err(OptionError {
+                place: self.place(),
+                problem: Problem::NotAllowed {
+                    allowed: format!("in 0..={max}"),
+                    got: v.to_string(),
+                },
+            }),
             None => Err(self.error("expected a whole number")),
         }
     }
@@ -284,16 +396,16 @@ impl Field<'_> {
     }
 
     /// One finite number.
-    fn scalar(&self) -> Result<f64, String> {
+    fn scalar(&self) -> Result<f64> {
         Self::number(self.value.get_ref())
             .filter(|v| v.is_finite())
             .ok_or_else(|| self.error("expected a number"))
     }
 
     /// A number, or an array of numbers or of arrays of numbers, flattened.
-    fn numbers(&self) -> Result<Vec<f64>, String> {
+    fn numbers(&self) -> Result<Vec<f64>> {
         let mut out = Vec::new();
-        let mut push = |v: &Value| -> Result<(), String> {
+        let mut push = |v: &Value| -> Result<()> {
             out.push(Self::number(v).ok_or_else(|| self.error("expected numbers"))?);
             Ok(())
         };
@@ -311,25 +423,40 @@ impl Field<'_> {
         Ok(out)
     }
 
-    /// A parser's result, its error (which starts with the key) naming the file and line.
-    fn check<T>(&self, result: Result<T, String>) -> Result<T, String> {
-        result.map_err(|e| {
-            let detail = e.strip_prefix(self.key.as_str()).unwrap_or(&e);
-            self.error(detail.trim_start_matches(':').trim_start())
+    /// A parser's result, its error placed at the file, line and key.
+    fn check<T>(&self, result: Result<T>) -> Result<T> {
+        result.map_err(|e| OptionError {
+            place: self.place(),
+            problem: e.problem,
         })
     }
 }
 
 /// Reads the options from a TOML file; errors name the file, the line and the key.
-pub fn from_file(file: &Path) -> Result<IspOptions, String> {
-    let text = std::fs::read_to_string(file).map_err(|e| format!("{}: {e}", file.display()))?;
+pub fn from_file(file: &Path) -> Result<IspOptions> {
+    let whole_file = |problem: String| OptionError {
+        place: Place::File {
+            file: file.to_owned(),
+            line: None,
+            key: None,
+        },
+        problem: Problem::Invalid(problem),
+    };
+    let text = std::fs::read_to_string(file).map_err(|e| whole_file(e.to_string()))?;
     from_toml(&text, file)
 }
 
 /// The options in TOML `text` (from `file`, for messages).
-pub fn from_toml(text: &str, file: &Path) -> Result<IspOptions, String> {
+pub fn from_toml(text: &str, file: &Path) -> Result<IspOptions> {
     let table: BTreeMap<String, Spanned<Value>> =
-        toml::from_str(text).map_err(|e| format!("{}: {e}", file.display()))?;
+        toml::from_str(text).map_err(|e| OptionError {
+            place: Place::File {
+                file: file.to_owned(),
+                line: None,
+                key: None,
+            },
+            problem: Problem::Invalid(e.to_string()),
+        })?;
     let mut options = IspOptions::default();
     let mut awb_seen = None;
     for (key, value) in &table {
@@ -387,7 +514,7 @@ pub fn from_toml(text: &str, file: &Path) -> Result<IspOptions, String> {
     Ok(options)
 }
 
-fn defects(f: &Field<'_>) -> Result<Vec<Defect>, String> {
+fn defects(f: &Field<'_>) -> Result<Vec<Defect>> {
     let items = f
         .value
         .get_ref()
@@ -414,13 +541,13 @@ fn defects(f: &Field<'_>) -> Result<Vec<Defect>, String> {
     Ok(out)
 }
 
-fn shading(f: &Field<'_>) -> Result<ShadingGrid, String> {
+fn shading(f: &Field<'_>) -> Result<ShadingGrid> {
     let table = f
         .value
         .get_ref()
         .as_table()
         .ok_or_else(|| f.error("expected a table with grid-width, grid-height and gains"))?;
-    let side = |key: &str| -> Result<usize, String> {
+    let side = |key: &str| -> Result<usize> {
         match table.get(key).and_then(|v| v.as_integer()) {
             Some(n) if (2..=isp_core::lsc::MAX_GRID_SIDE as i64).contains(&n) => Ok(n as usize),
             _ => Err(f.error(format!(

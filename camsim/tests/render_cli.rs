@@ -290,7 +290,9 @@ fn the_demo_scene_is_spectral_and_uses_every_effect() {
 }
 
 fn error_of(text: &str) -> String {
-    parse(text, "scene.toml", Path::new(".")).unwrap_err()
+    parse(text, "scene.toml", Path::new("."))
+        .unwrap_err()
+        .to_string()
 }
 
 const CAMERA: &str = "[camera]\nposition = [0, 0, 5]\ntarget = [0, 0, 0]\n";

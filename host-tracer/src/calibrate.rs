@@ -20,6 +20,7 @@ use isp_core::colour::{self, Mat3};
 use isp_core::metrics::mean_max;
 use raw_formats::calibration::{CalibrationEntry, CalibrationFile};
 
+use crate::error::{Error, Result};
 use crate::sensor::{self, LensGeometry, Response, SensorConfig};
 use crate::spectra::{bands_xyz, illuminant_bands, xyz_weights, Table, BANDS, COLORCHECKER};
 use crate::tracer::render::{render, RenderSettings};
@@ -49,7 +50,7 @@ pub struct Calibrated {
 
 /// The chart scene as TOML: 6 x 4 patches, 0.1 apart with 0.07 faces, seen square-on by a
 /// pinhole that frames them exactly.
-fn chart_scene(illuminant: &str) -> Result<String, String> {
+fn chart_scene(illuminant: &str) -> Result<String> {
     let names = Table::parse(COLORCHECKER)?.names().to_vec();
     let mut text = format!(
         "[film]\nwidth = {}\nheight = {}\nspp = 1\nmax_depth = 2\n\n\
@@ -75,7 +76,7 @@ fn chart_scene(illuminant: &str) -> Result<String, String> {
 }
 
 /// Calibrates `camera` under `illuminant`.
-pub fn calibrate(camera: &str, illuminant: &str) -> Result<Calibrated, String> {
+pub fn calibrate(camera: &str, illuminant: &str) -> Result<Calibrated> {
     let response = Response::named(camera)?;
     let scene = scene_file::parse(
         &chart_scene(illuminant)?,
@@ -86,7 +87,13 @@ pub fn calibrate(camera: &str, illuminant: &str) -> Result<Calibrated, String> {
     let image = render(&scene, &settings)?;
     let (w, h) = (image.width as usize, image.height as usize);
     if image.bands.len() != w * h * BANDS {
-        return Err("the chart render is not spectral".into());
+        return Err(Error::Isp {
+            step: "the chart render",
+            source: isp_core::IspError::InvalidParameter {
+                name: "chart render",
+                allowed: "spectral",
+            },
+        });
     }
     let config = SensorConfig {
         camera: camera.into(),
@@ -134,8 +141,9 @@ pub fn calibrate(camera: &str, illuminant: &str) -> Result<Calibrated, String> {
     let (white_xyz, neutral) = illuminant_colour(illuminant, &response)?;
     let camera_values: Vec<[f64; 3]> = patches.iter().map(|p| p.0).collect();
     let reference: Vec<[f64; 3]> = patches.iter().map(|p| p.1).collect();
-    let camera_to_xyz = fit(&camera_values, &reference).map_err(|e| e.to_string())?;
-    let lab = |v: [f64; 3]| colour::xyz_to_lab(v, white_xyz).map_err(|e| e.to_string());
+    let isp = |step: &'static str| move |source| Error::Isp { step, source };
+    let camera_to_xyz = fit(&camera_values, &reference).map_err(isp("3x3 fit"))?;
+    let lab = |v: [f64; 3]| colour::xyz_to_lab(v, white_xyz).map_err(isp("L*a*b*"));
     let mut delta_e_matrix = Vec::new();
     for (c, r) in camera_values.iter().zip(&reference) {
         let fitted = colour::mat3_mul_vec(&camera_to_xyz, *c);
@@ -148,8 +156,8 @@ pub fn calibrate(camera: &str, illuminant: &str) -> Result<Calibrated, String> {
         let fitted: [f64; 3] = std::array::from_fn(|k| (0..6).map(|j| root[k][j] * terms[j]).sum());
         delta_e_root_polynomial.push(colour::delta_e_2000(lab(fitted)?, lab(*r)?));
     }
-    let cct_k = colour::xy_to_cct_mccamy(colour::xyz_to_xy(white_xyz).map_err(|e| e.to_string())?)
-        .map_err(|e| e.to_string())?;
+    let cct_k = colour::xy_to_cct_mccamy(colour::xyz_to_xy(white_xyz).map_err(isp("xy"))?)
+        .map_err(isp("CCT"))?;
     Ok(Calibrated {
         illuminant: illuminant.into(),
         cct_k,
@@ -162,15 +170,16 @@ pub fn calibrate(camera: &str, illuminant: &str) -> Result<Calibrated, String> {
 }
 
 /// The illuminant's XYZ (Y = 1) and its colour in camera RGB (green 1), on the tracer's bands.
-pub fn illuminant_colour(
-    illuminant: &str,
-    response: &Response,
-) -> Result<([f64; 3], [f64; 3]), String> {
+pub fn illuminant_colour(illuminant: &str, response: &Response) -> Result<([f64; 3], [f64; 3])> {
     let bands = illuminant_bands(illuminant)?;
     let xyz = bands_xyz(&bands);
     let rgb = response.of_bands(&bands).map(|v| v as f64);
     if !(xyz[1] > 0.0 && rgb[1] > 0.0) {
-        return Err(format!("illuminant {illuminant}: no light in 400..700 nm"));
+        return Err(Error::out_of_range(
+            format!("illuminant {illuminant}"),
+            "no light in 400..700 nm",
+            "a spectrum with light in 400..700 nm",
+        ));
     }
     Ok((xyz.map(|v| v / xyz[1]), rgb.map(|v| v / rgb[1])))
 }
@@ -181,10 +190,7 @@ fn root_terms(c: [f64; 3]) -> [f64; 6] {
 }
 
 /// Least squares `reference ~ M * terms(camera)`, `M` 3 x 6, by the normal equations.
-fn fit_root_polynomial(
-    camera: &[[f64; 3]],
-    reference: &[[f64; 3]],
-) -> Result<[[f64; 6]; 3], String> {
+fn fit_root_polynomial(camera: &[[f64; 3]], reference: &[[f64; 3]]) -> Result<[[f64; 6]; 3]> {
     let mut gram = [[0.0f64; 6]; 6];
     let mut cross = [[0.0f64; 6]; 3];
     for (c, r) in camera.iter().zip(reference) {
@@ -200,7 +206,13 @@ fn fit_root_polynomial(
     }
     let mut out = [[0.0f64; 6]; 3];
     for k in 0..3 {
-        out[k] = solve6(gram, cross[k]).ok_or("root-polynomial fit: singular patch terms")?;
+        out[k] = solve6(gram, cross[k]).ok_or(Error::Isp {
+            step: "root-polynomial fit",
+            source: isp_core::IspError::InvalidParameter {
+                name: "patch terms",
+                allowed: "a non-singular set (patches spanning six terms)",
+            },
+        })?;
     }
     Ok(out)
 }

@@ -17,8 +17,11 @@
 #![warn(missing_docs)]
 
 pub mod calibrate;
+mod error;
 pub mod random;
 pub mod render_bench;
 pub mod sensor;
 pub mod spectra;
 pub mod tracer;
+
+pub use error::{Error, Result};

@@ -9,6 +9,7 @@
 
 use glam::Vec3;
 
+use crate::error::{Error, Result};
 use crate::tracer::render::{render, RenderSettings};
 use crate::tracer::scene::{ApertureDesc, Colour, SceneDesc};
 
@@ -187,14 +188,15 @@ pub fn bench(
     scene: &SceneDesc,
     settings: &BenchSettings,
     progress: &mut dyn FnMut(&str),
-) -> Result<Vec<FeatureRow>, String> {
+) -> Result<Vec<FeatureRow>> {
     if settings.repeats == 0 {
-        return Err("--repeats must be at least 1".into());
+        return Err(Error::out_of_range("--repeats", 0, "at least 1"));
     }
     if !(settings.aperture_radius.is_finite() && settings.aperture_radius > 0.0) {
-        return Err(format!(
-            "--aperture-radius must be > 0 (got {})",
-            settings.aperture_radius
+        return Err(Error::out_of_range(
+            "--aperture-radius",
+            settings.aperture_radius,
+            "> 0",
         ));
     }
     // The base: the scene with every feature off.
@@ -206,9 +208,10 @@ pub fn bench(
     base.camera.distortion = None;
     base.shapes.iter_mut().for_each(|s| s.motion = Vec3::ZERO);
     if base.is_spectral() {
-        return Err(format!(
-            "scene {:?} has spectral colours: the pinhole baseline needs an RGB scene",
-            scene.name
+        return Err(Error::out_of_range(
+            format!("scene {:?}", scene.name),
+            "spectral colours",
+            "an RGB scene (the pinhole baseline renders RGB)",
         ));
     }
     let mut rows: Vec<FeatureRow> = Vec::new();
@@ -328,16 +331,19 @@ mod tests {
         };
         assert!(bench(&scene, &settings, &mut |_| {})
             .unwrap_err()
+            .to_string()
             .contains("--repeats"));
         settings.repeats = 1;
         settings.aperture_radius = f32::NAN;
         assert!(bench(&scene, &settings, &mut |_| {})
             .unwrap_err()
+            .to_string()
             .contains("--aperture-radius"));
         settings.aperture_radius = 0.1;
         settings.spp = 0;
         assert!(bench(&scene, &settings, &mut |_| {})
             .unwrap_err()
+            .to_string()
             .contains("spp"));
     }
 }

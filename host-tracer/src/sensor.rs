@@ -39,6 +39,7 @@
 use isp_core::CfaPattern;
 use raw_formats::RawImage;
 
+use crate::error::{Error, Result};
 use crate::random::Rng;
 use crate::spectra::{bands_from_grid, Table, BANDS, CAMERAS, CIE1931};
 
@@ -167,32 +168,31 @@ pub fn camera_names() -> Vec<&'static str> {
 
 impl Response {
     /// The response of a named camera (see [`camera_names`]).
-    pub fn named(name: &str) -> Result<Response, String> {
+    pub fn named(name: &str) -> Result<Response> {
         let (table, columns) = if name == "cie1931" {
             (Table::parse(CIE1931)?, ["x_bar", "y_bar", "z_bar"])
         } else {
             let text = CAMERAS
                 .iter()
                 .find(|c| c.0 == name)
-                .ok_or_else(|| {
-                    format!(
-                        "unknown camera {name:?}; known: {}",
-                        camera_names().join(", ")
-                    )
+                .ok_or_else(|| Error::Unknown {
+                    kind: "camera",
+                    name: name.to_owned(),
+                    known: camera_names().iter().map(|n| n.to_string()).collect(),
                 })?
                 .1;
             (Table::parse(text)?, ["r", "g", "b"])
         };
         let mut bands = [[0.0f32; BANDS]; 3];
         for (c, col) in columns.iter().enumerate() {
-            let column = table
-                .column(col)
-                .ok_or(format!("camera {name}: no column {col}"))?;
-            bands[c] = bands_from_grid(column);
+            bands[c] = bands_from_grid(table.named("spectral column", col)?);
         }
         let green: f32 = bands[1].iter().sum();
         if green.is_nan() || green <= 0.0 {
-            return Err(format!("camera {name}: zero green sensitivity"));
+            return Err(Error::Table {
+                line: None,
+                problem: format!("camera {name}: zero green sensitivity"),
+            });
         }
         Ok(Response::Spectral {
             name: name.to_owned(),
@@ -396,37 +396,41 @@ impl SensorConfig {
     }
 
     /// Checks every field; errors name it and the allowed range.
-    pub fn validate(&self) -> Result<(), String> {
-        let positive = |v: f64, name: &str| {
+    pub fn validate(&self) -> Result<()> {
+        let setting = |field: &'static str, value: String, allowed: String| {
+            Err(Error::SensorSetting {
+                field,
+                value,
+                allowed,
+            })
+        };
+        let positive = |v: f64, name: &'static str| {
             if v.is_finite() && v > 0.0 {
                 Ok(())
             } else {
-                Err(format!(
-                    "sensor {name}: expected a finite number > 0, got {v}"
-                ))
+                setting(name, v.to_string(), "a finite number > 0".into())
             }
         };
-        let non_negative = |v: f64, name: &str| {
+        let non_negative = |v: f64, name: &'static str| {
             if v.is_finite() && v >= 0.0 {
                 Ok(())
             } else {
-                Err(format!(
-                    "sensor {name}: expected a finite number >= 0, got {v}"
-                ))
+                setting(name, v.to_string(), "a finite number >= 0".into())
             }
         };
         if !(8..=16).contains(&self.adc_bits) {
-            return Err(format!(
-                "sensor adc_bits: expected 8..=16 (10, 12, 14 are usual), got {}",
-                self.adc_bits
-            ));
+            return setting(
+                "adc_bits",
+                self.adc_bits.to_string(),
+                "8..=16 (10, 12, 14 are usual)".into(),
+            );
         }
         if self.black() >= self.white_level() / 2 {
-            return Err(format!(
-                "sensor black_level: expected below half the ADC range ({}), got {}",
-                self.white_level() / 2,
-                self.black()
-            ));
+            return setting(
+                "black_level",
+                self.black().to_string(),
+                format!("below half the ADC range ({})", self.white_level() / 2),
+            );
         }
         positive(self.full_well_e, "full_well_e")?;
         positive(self.iso, "iso")?;
@@ -451,10 +455,11 @@ impl SensorConfig {
             non_negative(v, name)?;
         }
         if self.shading.colour.iter().any(|c| !(0.0..1.0).contains(c)) {
-            return Err(format!(
-                "sensor colour shading: expected each in [0, 1), got {:?}",
-                self.shading.colour
-            ));
+            return setting(
+                "colour shading",
+                format!("{:?}", self.shading.colour),
+                "each in [0, 1)".into(),
+            );
         }
         Response::named(&self.camera).map(|_| ())
     }
@@ -566,18 +571,20 @@ pub fn capture(
     height: usize,
     lens: LensGeometry,
     config: &SensorConfig,
-) -> Result<Capture, String> {
+) -> Result<Capture> {
     config.validate()?;
     if width == 0 || height == 0 || camera_rgb.len() != width * height * 3 {
-        return Err(format!(
-            "sensor: expected {width} x {height} x 3 radiance values, got {}",
-            camera_rgb.len()
+        return Err(Error::out_of_range(
+            "sensor radiance values",
+            camera_rgb.len(),
+            format!("{width} x {height} x 3, at least 1 x 1"),
         ));
     }
     if !(lens.f_number.is_finite() && lens.f_number > 0.0 && lens.focal_length_mm > 0.0) {
-        return Err(format!(
-            "sensor: lens f-number and focal length must be > 0 (got f/{} and {} mm)",
-            lens.f_number, lens.focal_length_mm
+        return Err(Error::out_of_range(
+            "sensor lens f-number and focal length",
+            format!("f/{} and {} mm", lens.f_number, lens.focal_length_mm),
+            "> 0",
         ));
     }
     let shading = Shading {
@@ -656,8 +663,7 @@ pub fn capture(
         [black; 4],
         white,
         raw,
-    )
-    .map_err(|e| format!("sensor: {e}"))?;
+    )?;
     Ok(Capture {
         raw,
         truth_camera,
@@ -677,7 +683,7 @@ fn auto_exposure(
     f_number: f64,
     sensitivity: f64,
     config: &SensorConfig,
-) -> Result<f64, String> {
+) -> Result<f64> {
     let mut peaks: Vec<f64> = camera_rgb
         .chunks_exact(3)
         .enumerate()
@@ -693,7 +699,9 @@ fn auto_exposure(
     let (_, p99, _) = peaks.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
     let per_second = pixel::signal_electrons(*p99, f_number, 1.0, sensitivity);
     if !(per_second.is_finite() && per_second > 0.0) {
-        return Err("sensor: the frame is black, so automatic exposure has nothing to meter; give an exposure time".into());
+        return Err(Error::Sensor {
+            problem: "the frame is black, so automatic exposure has nothing to meter; give an exposure time",
+        });
     }
     Ok(0.8 * config.full_well_e / per_second)
 }
@@ -766,7 +774,10 @@ mod tests {
             let g = r.of_bands(&[1.0; BANDS])[1];
             assert!((g - 1.0).abs() < 1e-5, "{name}: {g}");
         }
-        assert!(Response::named("nikon").unwrap_err().contains("nikon-5100"));
+        assert!(Response::named("nikon")
+            .unwrap_err()
+            .to_string()
+            .contains("nikon-5100"));
     }
 
     #[test]

@@ -15,6 +15,8 @@
 //! assert_eq!(d65.column("D65").unwrap().len(), 81);
 //! ```
 
+use crate::error::{Error, Result};
+
 /// First wavelength of the grid, nm.
 pub const FIRST_NM: f64 = 380.0;
 /// Grid step, nm.
@@ -131,15 +133,9 @@ pub fn bands_to_linear_srgb(bands: &[f32], weights: &[[f32; 3]; BANDS]) -> [f32;
 }
 
 /// An illuminant of [`ILLUMINANTS`] on the band grid (unnormalised).
-pub fn illuminant_bands(illuminant: &str) -> Result<[f32; BANDS], String> {
+pub fn illuminant_bands(illuminant: &str) -> Result<[f32; BANDS]> {
     let table = Table::parse(ILLUMINANTS)?;
-    let spd = table.column(illuminant).ok_or_else(|| {
-        format!(
-            "unknown illuminant {illuminant:?}; known: {}",
-            table.names().join(", ")
-        )
-    })?;
-    Ok(bands_from_grid(spd))
+    Ok(bands_from_grid(table.named("illuminant", illuminant)?))
 }
 
 /// CIE XYZ of a band spectrum (weights from [`xyz_weights`]: constant 1 has `Y = 1`).
@@ -163,27 +159,33 @@ pub struct Table {
 impl Table {
     /// Parses a CSV: `#` comment lines, a header `wavelength_nm,NAME,...`, then one row per
     /// grid wavelength. Errors name the line.
-    pub fn parse(text: &str) -> Result<Table, String> {
+    pub fn parse(text: &str) -> Result<Table> {
+        let problem = |line: Option<usize>, problem: String| Error::Table { line, problem };
         let mut lines = text
             .lines()
             .enumerate()
             .filter(|(_, l)| !l.starts_with('#') && !l.trim().is_empty());
-        let (_, header) = lines.next().ok_or("no header line")?;
+        let (_, header) = lines
+            .next()
+            .ok_or_else(|| problem(None, "no header line".into()))?;
         let mut fields = header.split(',');
         if fields.next() != Some("wavelength_nm") {
-            return Err("the first column must be wavelength_nm".into());
+            return Err(problem(
+                None,
+                "the first column must be wavelength_nm".into(),
+            ));
         }
         let names: Vec<String> = fields.map(str::to_owned).collect();
         let mut columns = vec![Vec::with_capacity(SAMPLES); names.len()];
         for (k, (n, line)) in lines.enumerate() {
-            let values: Result<Vec<f64>, _> = line.split(',').map(str::parse::<f64>).collect();
-            let values = values.map_err(|e| format!("line {}: {e}", n + 1))?;
+            let values: std::result::Result<Vec<f64>, _> =
+                line.split(',').map(str::parse::<f64>).collect();
+            let values = values.map_err(|e| problem(Some(n + 1), e.to_string()))?;
             let expected_nm = FIRST_NM + STEP_NM * k as f64;
             if values.len() != names.len() + 1 || values[0] != expected_nm {
-                return Err(format!(
-                    "line {}: expected {expected_nm} nm and {} values",
-                    n + 1,
-                    names.len()
+                return Err(problem(
+                    Some(n + 1),
+                    format!("expected {expected_nm} nm and {} values", names.len()),
                 ));
             }
             for (column, v) in columns.iter_mut().zip(&values[1..]) {
@@ -191,7 +193,10 @@ impl Table {
             }
         }
         if columns.iter().any(|c| c.len() != SAMPLES) {
-            return Err(format!("expected {SAMPLES} rows, 380..=780 nm"));
+            return Err(problem(
+                None,
+                format!("expected {SAMPLES} rows, 380..=780 nm"),
+            ));
         }
         Ok(Table { names, columns })
     }
@@ -199,6 +204,15 @@ impl Table {
     /// The column names, in file order.
     pub fn names(&self) -> &[String] {
         &self.names
+    }
+
+    /// The column called `name`, or an error naming the `kind` of name and the known ones.
+    pub fn named(&self, kind: &'static str, name: &str) -> Result<&[f64]> {
+        self.column(name).ok_or_else(|| Error::Unknown {
+            kind,
+            name: name.to_owned(),
+            known: self.names.clone(),
+        })
     }
 
     /// The column called `name`.
@@ -225,33 +239,23 @@ pub type PatchValues = (Vec<[f64; 3]>, Vec<[f64; 3]>);
 /// The 24 ColorChecker patches under `illuminant` (a column of [`ILLUMINANTS`]): their CIE XYZ,
 /// scaled so a perfect white has `Y = 1`, and the raw responses of `camera` (a name in
 /// [`CAMERAS`]) scaled the same way by the white's green.
-pub fn colorchecker(illuminant: &str, camera: &str) -> Result<PatchValues, String> {
+pub fn colorchecker(illuminant: &str, camera: &str) -> Result<PatchValues> {
     let cmfs = Table::parse(CIE1931)?;
     let illuminants = Table::parse(ILLUMINANTS)?;
     let patches = Table::parse(COLORCHECKER)?;
     let sensor = CAMERAS
         .iter()
         .find(|(n, _)| *n == camera)
-        .ok_or_else(|| {
-            format!(
-                "unknown camera {camera:?}; known: {}",
-                CAMERAS.map(|c| c.0).join(", ")
-            )
+        .ok_or_else(|| Error::Unknown {
+            kind: "camera",
+            name: camera.to_owned(),
+            known: CAMERAS.iter().map(|c| c.0.to_owned()).collect(),
         })
         .and_then(|(_, text)| Table::parse(text))?;
-    let light = illuminants.column(illuminant).ok_or_else(|| {
-        format!(
-            "unknown illuminant {illuminant:?}; known: {}",
-            illuminants.names().join(", ")
-        )
-    })?;
+    let light = illuminants.named("illuminant", illuminant)?;
     let ones = vec![1.0; SAMPLES];
-    let channels = |t: &Table, names: [&str; 3]| -> Result<[Vec<f64>; 3], String> {
-        let get = |n: &str| {
-            t.column(n)
-                .map(<[f64]>::to_vec)
-                .ok_or(format!("no column {n}"))
-        };
+    let channels = |t: &Table, names: [&'static str; 3]| -> Result<[Vec<f64>; 3]> {
+        let get = |n: &'static str| t.named("spectral column", n).map(<[f64]>::to_vec);
         Ok([get(names[0])?, get(names[1])?, get(names[2])?])
     };
     let xyz_bar = channels(&cmfs, ["x_bar", "y_bar", "z_bar"])?;
@@ -260,7 +264,10 @@ pub fn colorchecker(illuminant: &str, camera: &str) -> Result<PatchValues, Strin
     let white_g = integrate(&rgb_bar[1], light, &ones);
     let (mut xyz, mut rgb) = (Vec::new(), Vec::new());
     for i in 0..patches.names().len() {
-        let r = patches.column_at(i).ok_or("missing patch")?;
+        let r = patches.column_at(i).ok_or(Error::Table {
+            line: None,
+            problem: format!("ColorChecker column {i} missing"),
+        })?;
         xyz.push(std::array::from_fn(|c| {
             integrate(&xyz_bar[c], light, r) / white_y
         }));

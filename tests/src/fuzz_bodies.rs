@@ -253,7 +253,13 @@ pub fn scene_file(data: &[u8]) {
         return;
     }
     match host_tracer::tracer::scene_file::parse(&text, "fuzz.toml", std::path::Path::new(".")) {
-        Err(e) => assert!(e.starts_with("fuzz.toml"), "{e}"),
+        Err(e) => {
+            assert!(
+                matches!(&e, host_tracer::Error::Scene { file, .. } if file == "fuzz.toml"),
+                "{e:?}"
+            );
+            assert!(e.to_string().starts_with("fuzz.toml"), "{e}");
+        }
         Ok(scene) => {
             let mut s = RenderSettings::for_scene(&scene);
             (s.width, s.height, s.spp, s.threads) = (3, 2, 1, 1);

@@ -12,6 +12,7 @@ use super::color::{band_rgb_channel, Channels};
 use super::integrator::{radiance, PathSettings};
 use super::sampling::Rng;
 use super::scene::{CameraRig, MaskTable, Scene, SceneDesc};
+use crate::error::{Error, Result};
 use crate::spectra::{bands_to_linear_srgb, xyz_weights, BANDS};
 
 /// What to render and how.
@@ -52,20 +53,26 @@ impl RenderSettings {
         }
     }
 
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<()> {
         if !(1..=MAX_SIDE).contains(&self.width) || !(1..=MAX_SIDE).contains(&self.height) {
-            return Err(format!(
-                "width and height must be in 1..={MAX_SIDE} (got {} x {})",
-                self.width, self.height
+            return Err(Error::out_of_range(
+                "width and height",
+                format!("{} x {}", self.width, self.height),
+                format!("in 1..={MAX_SIDE}"),
             ));
         }
         if !(1..=MAX_SPP).contains(&self.spp) {
-            return Err(format!("spp must be in 1..={MAX_SPP} (got {})", self.spp));
+            return Err(Error::out_of_range(
+                "spp",
+                self.spp,
+                format!("in 1..={MAX_SPP}"),
+            ));
         }
         if !(1..=1024).contains(&self.path.max_depth) {
-            return Err(format!(
-                "max depth must be in 1..=1024 (got {})",
-                self.path.max_depth
+            return Err(Error::out_of_range(
+                "max depth",
+                self.path.max_depth,
+                "in 1..=1024",
             ));
         }
         Ok(())
@@ -101,7 +108,7 @@ impl Rendered {
 const TILE: u32 = 16;
 
 /// Renders `desc`. Spectral scenes are traced in [`BANDS`] bands, others in RGB.
-pub fn render(desc: &SceneDesc, settings: &RenderSettings) -> Result<Rendered, String> {
+pub fn render(desc: &SceneDesc, settings: &RenderSettings) -> Result<Rendered> {
     render_with_progress(desc, settings, &|_| {})
 }
 
@@ -120,7 +127,7 @@ pub fn render_with_progress(
     desc: &SceneDesc,
     settings: &RenderSettings,
     progress: &(dyn Fn(RenderProgress) + Sync),
-) -> Result<Rendered, String> {
+) -> Result<Rendered> {
     settings.check()?;
     if desc.is_spectral() {
         let mut out = render_channels::<BANDS>(desc, settings, progress)?;
@@ -196,7 +203,7 @@ fn render_channels<const N: usize>(
     desc: &SceneDesc,
     settings: &RenderSettings,
     progress: &(dyn Fn(RenderProgress) + Sync),
-) -> Result<Rendered, String> {
+) -> Result<Rendered> {
     let start = Instant::now();
     let mut table = MaskTable::default();
     let rig = desc.camera.rig(
@@ -214,7 +221,7 @@ fn render_channels<const N: usize>(
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(settings.threads)
         .build()
-        .map_err(|e| format!("cannot start render threads: {e}"))?;
+        .map_err(|e| Error::Threads(e.to_string()))?;
     let done = AtomicUsize::new(0);
     let total = tiles.len();
     let begin = Instant::now();

@@ -234,9 +234,9 @@ impl CameraDesc {
         height: u32,
         any_motion: bool,
         table: &'a mut MaskTable,
-    ) -> Result<CameraRig<'a>, String> {
-        fn e(what: &'static str) -> impl Fn(optics_core::OpticsError) -> String {
-            move |err| format!("camera: {what}: {err}")
+    ) -> crate::error::Result<CameraRig<'a>> {
+        fn e(part: &'static str) -> impl Fn(optics_core::OpticsError) -> crate::error::Error {
+            move |source| crate::error::Error::Optics { part, source }
         }
         let sensor = self.sensor_mm(width, height);
         let focus_mm = if self.aperture_radius_mm > 0.0 {

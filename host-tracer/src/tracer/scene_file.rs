@@ -10,6 +10,7 @@ use toml::Spanned;
 
 use super::geometry::{cube, quad, Shape, Sphere, Triangle};
 use super::scene::{ApertureDesc, CameraDesc, Colour, SceneDesc, SensorSize, ShapeDesc};
+use crate::error::{Error, Result};
 use crate::spectra::{bands_from_grid, bands_from_samples, xyz_weights};
 use crate::spectra::{Table, COLORCHECKER, ILLUMINANTS};
 
@@ -138,23 +139,32 @@ impl Source<'_> {
         span: std::ops::Range<usize>,
         field: &str,
         what: impl std::fmt::Display,
-    ) -> String {
-        format!("{}:{}: {field}: {what}", self.name, self.line(span.start))
+    ) -> Error {
+        Error::Scene {
+            file: self.name.to_owned(),
+            line: Some(self.line(span.start)),
+            field: field.to_owned(),
+            problem: what.to_string(),
+        }
     }
 }
 
 /// Reads a scene: a built-in name ([`BUILT_IN`]) or a TOML file.
-pub fn load(name_or_path: &str) -> Result<SceneDesc, String> {
+pub fn load(name_or_path: &str) -> Result<SceneDesc> {
     if let Some((name, text)) = BUILT_IN.iter().find(|(n, _)| *n == name_or_path) {
         return parse(text, &format!("<built-in {name}>"), Path::new("."));
     }
     let path = Path::new(name_or_path);
-    let text = std::fs::read_to_string(path).map_err(|e| {
+    let text = std::fs::read_to_string(path).map_err(|source| {
         let names: Vec<&str> = BUILT_IN.iter().map(|(n, _)| *n).collect();
-        format!(
-            "{name_or_path}: {e} (a scene is a TOML file or one of the built-in scenes: {})",
-            names.join(", ")
-        )
+        Error::Io {
+            path: path.to_owned(),
+            source,
+            hint: Some(format!(
+                "a scene is a TOML file or one of the built-in scenes: {}",
+                names.join(", ")
+            )),
+        }
     })?;
     let dir = path.parent().unwrap_or(Path::new("."));
     parse(&text, name_or_path, dir)
@@ -166,17 +176,23 @@ fn finite3(v: [f32; 3]) -> Option<Vec3> {
 }
 
 /// Parses scene TOML `text` named `name` (for messages); relative paths resolve against `dir`.
-pub fn parse(text: &str, name: &str, dir: &Path) -> Result<SceneDesc, String> {
+pub fn parse(text: &str, name: &str, dir: &Path) -> Result<SceneDesc> {
     let src = Source { name, text };
     let file: SceneFile = toml::from_str(text).map_err(|e| {
         let line = e.span().map(|s| src.line(s.start));
         let message = e.message().trim().to_string();
-        match line {
+        let problem = match line {
             Some(l) => {
                 let shown = text.lines().nth(l - 1).unwrap_or("").trim();
-                format!("{name}:{l}: {message} (at `{shown}`)")
+                format!("{message} (at `{shown}`)")
             }
-            None => format!("{name}: {message}"),
+            None => message,
+        };
+        Error::Scene {
+            file: name.to_owned(),
+            line,
+            field: String::new(),
+            problem,
         }
     })?;
     let weights = xyz_weights();
@@ -246,49 +262,47 @@ pub fn parse(text: &str, name: &str, dir: &Path) -> Result<SceneDesc, String> {
         materials.push((key.clone(), colour));
     }
 
-    let emission = |spec: &EmissionSpec,
-                    span: std::ops::Range<usize>,
-                    field: &str|
-     -> Result<Colour, String> {
-        let err = |what: String| src.error(span.clone(), field, what);
-        match (spec.rgb, &spec.illuminant) {
-            (Some(rgb), None) => {
-                if spec.luminance.is_some() {
-                    return Err(err(
-                        "luminance goes with illuminant; rgb is the radiance itself".into(),
-                    ));
+    let emission =
+        |spec: &EmissionSpec, span: std::ops::Range<usize>, field: &str| -> Result<Colour> {
+            let err = |what: String| src.error(span.clone(), field, what);
+            match (spec.rgb, &spec.illuminant) {
+                (Some(rgb), None) => {
+                    if spec.luminance.is_some() {
+                        return Err(err(
+                            "luminance goes with illuminant; rgb is the radiance itself".into(),
+                        ));
+                    }
+                    if !rgb.iter().all(|v| v.is_finite() && *v >= 0.0) {
+                        return Err(err(format!(
+                            "rgb radiance must be finite and >= 0 (got {rgb:?})"
+                        )));
+                    }
+                    Ok(Colour::Rgb(rgb))
                 }
-                if !rgb.iter().all(|v| v.is_finite() && *v >= 0.0) {
-                    return Err(err(format!(
-                        "rgb radiance must be finite and >= 0 (got {rgb:?})"
-                    )));
+                (None, Some(name)) => {
+                    let table = Table::parse(ILLUMINANTS)?;
+                    let column = table.column(name).ok_or_else(|| {
+                        err(format!(
+                            "unknown illuminant {name:?}; illuminants: {}",
+                            table.names().join(", ")
+                        ))
+                    })?;
+                    let luminance = spec.luminance.unwrap_or(1.0);
+                    if !(luminance.is_finite() && luminance >= 0.0) {
+                        return Err(err(format!(
+                            "luminance must be finite and >= 0 (got {luminance})"
+                        )));
+                    }
+                    let bands = bands_from_grid(column);
+                    let y: f32 = bands.iter().zip(&weights).map(|(v, w)| v * w[1]).sum();
+                    let k = if y > 0.0 { luminance / y } else { 0.0 };
+                    Ok(Colour::Bands(Box::new(bands.map(|v| v * k))))
                 }
-                Ok(Colour::Rgb(rgb))
+                _ => Err(err(
+                    "give either rgb or illuminant (with an optional luminance)".into(),
+                )),
             }
-            (None, Some(name)) => {
-                let table = Table::parse(ILLUMINANTS)?;
-                let column = table.column(name).ok_or_else(|| {
-                    err(format!(
-                        "unknown illuminant {name:?}; illuminants: {}",
-                        table.names().join(", ")
-                    ))
-                })?;
-                let luminance = spec.luminance.unwrap_or(1.0);
-                if !(luminance.is_finite() && luminance >= 0.0) {
-                    return Err(err(format!(
-                        "luminance must be finite and >= 0 (got {luminance})"
-                    )));
-                }
-                let bands = bands_from_grid(column);
-                let y: f32 = bands.iter().zip(&weights).map(|(v, w)| v * w[1]).sum();
-                let k = if y > 0.0 { luminance / y } else { 0.0 };
-                Ok(Colour::Bands(Box::new(bands.map(|v| v * k))))
-            }
-            _ => Err(err(
-                "give either rgb or illuminant (with an optional luminance)".into(),
-            )),
-        }
-    };
+        };
 
     let environment = match &file.environment {
         Some(e) => Some(emission(e.get_ref(), e.span(), "environment")?),
@@ -303,7 +317,7 @@ pub fn parse(text: &str, name: &str, dir: &Path) -> Result<SceneDesc, String> {
         let err = |field: &str, what: String| {
             src.error(spanned.span(), &format!("{label}: {field}"), what)
         };
-        let unused = |allowed: &[&str]| -> Result<(), String> {
+        let unused = |allowed: &[&str]| -> Result<()> {
             let present = [
                 ("center", s.center.is_some()),
                 ("radius", s.radius.is_some()),
@@ -407,7 +421,7 @@ pub fn parse(text: &str, name: &str, dir: &Path) -> Result<SceneDesc, String> {
                 let m = Mat4::from_translation(translate)
                     * Mat4::from_rotation_y(angle)
                     * Mat4::from_scale(Vec3::splat(scale));
-                load_obj(&dir.join(obj), &m).map_err(|e| err("obj", e))?
+                load_obj(&dir.join(obj), &m, |what| err("obj", what))?
             }
             other => {
                 return Err(err(
@@ -495,28 +509,23 @@ pub fn parse(text: &str, name: &str, dir: &Path) -> Result<SceneDesc, String> {
     let mut table = super::scene::MaskTable::default();
     desc.camera
         .rig(width, height, false, &mut table)
-        .map_err(|e| {
-            src.error(
-                file.camera.span(),
-                "camera",
-                e.trim_start_matches("camera: "),
-            )
+        .map_err(|e| match e {
+            Error::Optics { part, source } => {
+                src.error(file.camera.span(), "camera", format!("{part}: {source}"))
+            }
+            e => e,
         })?;
     Ok(desc)
 }
 
-fn camera(
-    spanned: &Spanned<CameraSpec>,
-    src: &Source<'_>,
-    dir: &Path,
-) -> Result<CameraDesc, String> {
+fn camera(spanned: &Spanned<CameraSpec>, src: &Source<'_>, dir: &Path) -> Result<CameraDesc> {
     let c = spanned.get_ref();
     let err =
         |field: &str, what: String| src.error(spanned.span(), &format!("camera: {field}"), what);
     let point = |v: [f32; 3], field: &str| {
         finite3(v).ok_or_else(|| err(field, "expected a finite [x, y, z]".into()))
     };
-    let positive = |v: Option<f32>, field: &str| -> Result<Option<f32>, String> {
+    let positive = |v: Option<f32>, field: &str| -> Result<Option<f32>> {
         match v {
             Some(x) if !(x.is_finite() && x > 0.0) => {
                 Err(err(field, format!("must be > 0 (got {x})")))
@@ -643,9 +652,10 @@ fn camera(
     })
 }
 
-fn load_obj(path: &Path, to_world: &Mat4) -> Result<Vec<Shape>, String> {
+/// The triangles of an OBJ file; `fail` turns a problem into the scene file's error.
+fn load_obj(path: &Path, to_world: &Mat4, fail: impl Fn(String) -> Error) -> Result<Vec<Shape>> {
     let (models, _) = tobj::load_obj(path, &tobj::GPU_LOAD_OPTIONS)
-        .map_err(|e| format!("{}: {e}", path.display()))?;
+        .map_err(|e| fail(format!("{}: {e}", path.display())))?;
     let mut out = Vec::new();
     for model in &models {
         let m = &model.mesh;
@@ -661,16 +671,16 @@ fn load_obj(path: &Path, to_world: &Mat4) -> Result<Vec<Shape>, String> {
                     out.extend(Triangle::new(a, b, c).map(Shape::Triangle))
                 }
                 _ => {
-                    return Err(format!(
+                    return Err(fail(format!(
                         "{}: a face refers to a vertex that is not there",
                         path.display()
-                    ))
+                    )))
                 }
             }
         }
     }
     if out.is_empty() {
-        return Err(format!("{}: no triangles", path.display()));
+        return Err(fail(format!("{}: no triangles", path.display())));
     }
     Ok(out)
 }
