@@ -8,6 +8,7 @@ use camsim::Error;
 use clap::{Args, Subcommand};
 use host_tracer::render_bench::{bench, table, BenchSettings};
 
+use crate::args::DemosaicArg;
 use crate::progress::Progress;
 
 #[derive(Subcommand)]
@@ -31,8 +32,8 @@ pub struct BenchDemosaicArgs {
     #[arg(long)]
     bits: Option<u8>,
     /// Measure only this method (repeatable); every method when not given.
-    #[arg(long = "method", value_name = "METHOD")]
-    methods: Vec<String>,
+    #[arg(long = "method", value_name = "METHOD", value_enum)]
+    methods: Vec<DemosaicArg>,
     /// Print a JSON list of {method, bits, cpsnr_db, mpix_per_s} instead of a table.
     #[arg(long)]
     json: bool,
@@ -124,10 +125,7 @@ fn bench_demosaic(args: &BenchDemosaicArgs) -> Result<String, Error> {
     let methods = if args.methods.is_empty() {
         Demosaic::ALL.to_vec()
     } else {
-        args.methods
-            .iter()
-            .map(|m| Demosaic::parse(m))
-            .collect::<Result<Vec<_>, _>>()?
+        args.methods.iter().map(|m| Demosaic::from(*m)).collect()
     };
     let mut progress = Progress::new("bench");
     let mut rows = Vec::new();

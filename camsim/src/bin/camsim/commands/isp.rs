@@ -11,6 +11,8 @@ use camsim::Error;
 use clap::Args;
 use raw_formats::calibration::CalibrationFile;
 
+use crate::args::{AwbArg, LookArg, PathArg, PatternArg, PipelineDemosaicArg};
+
 /// The options of `camsim isp`. Every processing option can also come from `--config FILE`
 /// (see [`crate::isp_options`]); a flag given here wins over the file.
 #[derive(Args, Debug, Clone)]
@@ -25,9 +27,9 @@ pub struct IspArgs {
     /// a `defects` list); flags given on the command line win.
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// CFA pattern by the top-left 2x2 block: RGGB, BGGR, GRBG or GBRG [default: RGGB].
-    #[arg(long)]
-    pub pattern: Option<String>,
+    /// CFA pattern by the top-left 2x2 block [default: the file's, else RGGB].
+    #[arg(long, value_enum, ignore_case = true)]
+    pub pattern: Option<PatternArg>,
     /// Bits of raw data in each sample, 8..=16 [default: the file's depth].
     #[arg(long)]
     pub bits: Option<u8>,
@@ -44,16 +46,16 @@ pub struct IspArgs {
     /// White-balance gains R,G,B, each in [0, 16) [default: 1,1,1].
     #[arg(long, conflicts_with = "awb")]
     pub wb: Option<String>,
-    /// Automatic white balance: grey-world, white-patch, shades-of-grey or grey-edge.
-    #[arg(long)]
-    pub awb: Option<String>,
+    /// Automatic white balance.
+    #[arg(long, value_enum)]
+    pub awb: Option<AwbArg>,
     /// Colour matrix, camera RGB to linear sRGB: nine numbers row by row [default: identity].
     #[arg(long, allow_hyphen_values = true)]
     pub ccm: Option<String>,
-    /// Demosaicing: nearest, bilinear or mhc [default: bilinear] (directional is whole-frame
-    /// only so far: `camsim demosaic`).
-    #[arg(long)]
-    pub demosaic: Option<String>,
+    /// Demosaicing [default: bilinear] (directional is whole-frame only so far: `camsim
+    /// demosaic`).
+    #[arg(long, value_enum)]
+    pub demosaic: Option<PipelineDemosaicArg>,
     /// Lens distortion to correct: k1,k2,p1,p2 or k1,k2,p1,p2,k3 (OpenCV's order) [default: off].
     #[arg(long, allow_hyphen_values = true)]
     pub distortion: Option<String>,
@@ -67,16 +69,16 @@ pub struct IspArgs {
     /// Dynamic defective-pixel threshold in raw units [default: off].
     #[arg(long)]
     pub dpc_threshold: Option<u16>,
-    /// Look: neutral, vivid, muted, mono or high-contrast [default: neutral].
-    #[arg(long)]
-    pub look: Option<String>,
+    /// Look [default: neutral].
+    #[arg(long, value_enum)]
+    pub look: Option<LookArg>,
     /// Colour calibration file from `camsim calibrate`: the colour matrix then follows the
     /// white balance's colour temperature [default: the DNG's ColorMatrix tags, if any].
     #[arg(long)]
     pub calibration: Option<PathBuf>,
     /// float (the reference) or fixed (the firmware path) [default: float].
-    #[arg(long)]
-    pub path: Option<String>,
+    #[arg(long, value_enum)]
+    pub path: Option<PathArg>,
     /// Output depth: 8 or 16 [default: 8].
     #[arg(long)]
     pub out_bits: Option<u8>,
@@ -93,15 +95,11 @@ impl IspArgs {
         let white_balance = match (&self.wb, &self.awb) {
             (Some(_), _) => list(&self.wb, "--wb", &[3])?
                 .map(|g| WhiteBalance::Gains([g[0] as f32, g[1] as f32, g[2] as f32])),
-            (None, Some(name)) => Some(WhiteBalance::Auto(options::awb(name, "--awb")?)),
+            (None, Some(method)) => Some(WhiteBalance::Auto((*method).into())),
             (None, None) => None,
         };
         Ok(IspOptions {
-            pattern: self
-                .pattern
-                .as_deref()
-                .map(|t| options::pattern(t, "--pattern"))
-                .transpose()?,
+            pattern: self.pattern.map(Into::into),
             bits: self.bits,
             black_level: list(&self.black_level, "--black-level", &[1, 4])?
                 .map(|v| options::black_levels(v, "--black-level"))
@@ -112,25 +110,13 @@ impl IspArgs {
             ccm: list(&self.ccm, "--ccm", &[9])?
                 .map(|v| options::matrix(v, "--ccm"))
                 .transpose()?,
-            demosaic: self
-                .demosaic
-                .as_deref()
-                .map(|t| options::demosaic(t, "--demosaic"))
-                .transpose()?,
+            demosaic: self.demosaic.map(Into::into),
             denoise: self.denoise,
             dpc_threshold: self.dpc_threshold,
             defects: None,
             lsc: None,
-            look: self
-                .look
-                .as_deref()
-                .map(|t| options::look(t, "--look"))
-                .transpose()?,
-            fixed: self
-                .path
-                .as_deref()
-                .map(|t| options::path(t, "--path"))
-                .transpose()?,
+            look: self.look.map(Into::into),
+            fixed: self.path.map(|p| p == PathArg::Fixed),
             out_bits: self
                 .out_bits
                 .map(|b| options::out_bits(b, "--out-bits"))

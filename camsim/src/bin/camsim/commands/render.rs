@@ -10,35 +10,33 @@ use host_tracer::tracer::scene::SceneDesc;
 use host_tracer::tracer::scene_file;
 use raw_formats::Image;
 
+use crate::args::RenderFlags;
 use crate::progress::RenderBar;
 
+/// A camera model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum CameraArg {
+    /// No lens sample.
+    Pinhole,
+    /// A thin lens (needs an aperture).
+    Thinlens,
+}
+
 /// Arguments of `camsim render`.
-#[derive(Args, Debug, Default)]
+#[derive(Args, Debug)]
 pub struct RenderArgs {
     /// Built-in scene (cornell-box, demo) or a scene TOML file.
     #[arg(long, default_value = "cornell-box")]
     pub scene: String,
-    /// Image width in pixels (default: the scene's).
-    #[arg(long)]
-    pub width: Option<u32>,
-    /// Image height in pixels (default: the scene's).
-    #[arg(long)]
-    pub height: Option<u32>,
-    /// Samples per pixel (default: the scene's).
-    #[arg(long)]
-    pub spp: Option<u32>,
-    /// Random seed; the same seed gives the same image at any thread count.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
-    /// Worker threads (0: one per core).
-    #[arg(long, default_value_t = 0)]
-    pub threads: usize,
+    /// Size, samples, seed (default 0) and threads of the render.
+    #[command(flatten)]
+    pub render: RenderFlags<0>,
     /// Longest path in segments (Mitsuba's max_depth; default: the scene's).
     #[arg(long)]
     pub max_depth: Option<u32>,
     /// Camera model: pinhole (no lens sample) or thinlens (needs an aperture).
-    #[arg(long, value_name = "pinhole|thinlens")]
-    pub camera: Option<String>,
+    #[arg(long, value_enum)]
+    pub camera: Option<CameraArg>,
     /// Aperture radius in scene units (as Mitsuba's thinlens); implies --camera thinlens.
     #[arg(long, value_name = "R", allow_hyphen_values = true)]
     pub aperture_radius: Option<f32>,
@@ -76,9 +74,9 @@ pub fn settings(args: &RenderArgs, scene: &mut SceneDesc) -> Result<RenderSettin
     let cam = &mut scene.camera;
     let radius = positive(args.aperture_radius, "--aperture-radius")?;
     let focus = positive(args.focus_distance, "--focus-distance")?;
-    match args.camera.as_deref() {
+    match args.camera {
         None => {}
-        Some("pinhole") => {
+        Some(CameraArg::Pinhole) => {
             if radius.is_some() {
                 return Err(Error::Message(
                     "--camera pinhole has no aperture: drop --aperture-radius".into(),
@@ -86,20 +84,13 @@ pub fn settings(args: &RenderArgs, scene: &mut SceneDesc) -> Result<RenderSettin
             }
             cam.aperture_radius_mm = 0.0;
         }
-        Some("thinlens") if radius.is_none() && cam.aperture_radius_mm == 0.0 => {
+        Some(CameraArg::Thinlens) if radius.is_none() && cam.aperture_radius_mm == 0.0 => {
             return Err(Error::Message(format!(
                 "--camera thinlens needs --aperture-radius: scene {:?} is a pinhole",
                 scene.name
             )));
         }
-        Some("thinlens") => {}
-        Some(other) => {
-            return Err(Error::Option {
-                option: "--camera",
-                value: format!("{other:?}"),
-                allowed: "pinhole or thinlens".into(),
-            })
-        }
+        Some(CameraArg::Thinlens) => {}
     }
     if let Some(r) = radius {
         cam.aperture_radius_mm = r / cam.units_per_mm;
@@ -108,12 +99,13 @@ pub fn settings(args: &RenderArgs, scene: &mut SceneDesc) -> Result<RenderSettin
         cam.focus_distance = Some(d);
     }
     let mut s = RenderSettings::for_scene(scene);
-    s.width = args.width.unwrap_or(s.width);
-    s.height = args.height.unwrap_or(s.height);
-    s.spp = args.spp.unwrap_or(s.spp);
+    let flags = &args.render;
+    s.width = flags.width.unwrap_or(s.width);
+    s.height = flags.height.unwrap_or(s.height);
+    s.spp = flags.spp.unwrap_or(s.spp);
     s.path.max_depth = args.max_depth.unwrap_or(s.path.max_depth);
-    s.seed = args.seed;
-    s.threads = args.threads;
+    s.seed = flags.seed;
+    s.threads = flags.threads;
     let mut table = host_tracer::tracer::scene::MaskTable::default();
     scene.camera.rig(s.width, s.height, false, &mut table)?;
     Ok(s)
