@@ -1,9 +1,12 @@
 //! The three-aperture chromatic aberration heuristic.
 //!
-//! Lateral colour is modelled by giving each of red, green and blue its own copy of the aperture,
-//! shifted along the radial direction of the image point by `strength * p` (red outwards, green
-//! in place, blue inwards), where `p` is the film point normalised so the sensor's corner is at
-//! distance 1. At the image centre the three coincide.
+//! Each of red, green and blue gets its own copy of the aperture, shifted along the radial
+//! direction of the image point by `strength * p` (red outwards, green in place, blue inwards),
+//! where `p` is the film point normalised so the sensor's corner is at distance 1. At the image
+//! centre the three coincide. A shifted aperture moves an out-of-focus blur, not a focused
+//! point: the fringes appear where the image is out of focus, grow with the defocus, flip sign
+//! across the focus plane and vanish on it. That is the heuristic's look, not true lateral
+//! colour (a magnification that differs per wavelength, sharp fringes even in focus).
 //!
 //! A lens point `x` is drawn from the mixture of the three apertures (one picked uniformly,
 //! then sampled). Channel `c` gets the one-sample balance-heuristic weight
