@@ -9,9 +9,11 @@ use isp_core::tone::Look;
 use isp_core::wb::AwbMethod;
 use isp_core::CfaPattern;
 
-/// Image size, sampling, seed and threads of a render; `SEED` is the command's default seed.
+/// Image size, sampling, seed and threads of a render. The seed defaults to 0; a command with
+/// another default sets it with `#[command(mut_arg("seed", ...))]` (a const generic would not
+/// do: clap keeps a default's text in a static shared by every instantiation).
 #[derive(Args, Debug, Clone)]
-pub struct RenderFlags<const SEED: u64> {
+pub struct RenderFlags {
     /// Image width in pixels [default: the scene's].
     #[arg(long)]
     pub width: Option<u32>,
@@ -22,7 +24,7 @@ pub struct RenderFlags<const SEED: u64> {
     #[arg(long)]
     pub spp: Option<u32>,
     /// Random seed; the same seed gives the same image at any thread count.
-    #[arg(long, default_value_t = SEED)]
+    #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Worker threads (0: one per core).
     #[arg(long, default_value_t = 0)]
@@ -213,4 +215,38 @@ pub fn invalid_value_message(error: &clap::Error) -> Option<String> {
         many => format!("one of {}", many.join(", ")),
     };
     Some(format!("{flag} must be {allowed} (got {got:?})"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn name<T: ValueEnum>(v: &T) -> String {
+        v.to_possible_value().unwrap().get_name().to_owned()
+    }
+
+    /// The flags' names are the libraries' names, so messages, reports and config files agree.
+    #[test]
+    fn enum_flags_name_what_the_libraries_name() {
+        for v in DemosaicArg::value_variants() {
+            assert_eq!(name(v), camsim::demosaic::Demosaic::from(*v).name());
+        }
+        for v in PipelineDemosaicArg::value_variants() {
+            assert_eq!(name(v), Method::from(*v).name());
+            assert!(Method::from(*v).streams());
+        }
+        for v in LookArg::value_variants() {
+            assert_eq!(name(v), Look::from(*v).name());
+        }
+        for v in PatternArg::value_variants() {
+            assert_eq!(name(v), CfaPattern::from(*v).name());
+        }
+        for v in AwbArg::value_variants() {
+            assert_eq!(AwbMethod::from_name(&name(v)).unwrap(), AwbMethod::from(*v));
+        }
+        assert_eq!(
+            DemosaicArg::value_variants().len(),
+            camsim::demosaic::Demosaic::ALL.len()
+        );
+    }
 }

@@ -81,3 +81,30 @@ fn main() -> ExitCode {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(args: &[&str]) -> Command {
+        Cli::try_parse_from(args).unwrap().command
+    }
+
+    /// The shared render flags keep each command's defaults: demo's seed 1, render's 0 (the
+    /// demo's files and the README's figures depend on them).
+    #[test]
+    fn shared_flags_keep_each_commands_defaults() {
+        let Command::Demo(demo) = parse(&["camsim", "demo"]) else {
+            panic!("not demo")
+        };
+        assert_eq!((demo.render.seed, demo.render.threads), (1, 0));
+        let Command::Render(render) = parse(&["camsim", "render"]) else {
+            panic!("not render")
+        };
+        assert_eq!((render.render.seed, render.render.threads), (0, 0));
+        let Command::Demo(demo) = parse(&["camsim", "demo", "--seed", "7", "--spp", "3"]) else {
+            panic!("not demo")
+        };
+        assert_eq!((demo.render.seed, demo.render.spp), (7, Some(3)));
+    }
+}

@@ -21,6 +21,8 @@ pub enum SensorArg {
 
 /// Options of `camsim demo`.
 #[derive(Args, Debug, Clone)]
+// The demo's seed has always been 1 (the README's figures are for it).
+#[command(mut_arg("seed", |a| a.default_value("1")))]
 pub struct DemoArgs {
     /// Scene: a built-in name (demo, cornell-box) or a TOML file.
     #[arg(long, default_value = "demo")]
@@ -40,9 +42,9 @@ pub struct DemoArgs {
     /// Calibration file from `camsim calibrate` [default: calibrate under A and D65 now].
     #[arg(long)]
     pub calibration: Option<PathBuf>,
-    /// Size, samples, seed (default 1) and threads of the render.
+    /// Size, samples, seed and threads of the render (and the seed of the sensor's noise).
     #[command(flatten)]
-    pub render: RenderFlags<1>,
+    pub render: RenderFlags,
     /// ISO (analog gain; 100 is the base).
     #[arg(long, default_value_t = 100.0)]
     pub iso: f64,

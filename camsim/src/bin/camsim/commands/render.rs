@@ -28,9 +28,9 @@ pub struct RenderArgs {
     /// Built-in scene (cornell-box, demo) or a scene TOML file.
     #[arg(long, default_value = "cornell-box")]
     pub scene: String,
-    /// Size, samples, seed (default 0) and threads of the render.
+    /// Size, samples, seed and threads of the render.
     #[command(flatten)]
-    pub render: RenderFlags<0>,
+    pub render: RenderFlags,
     /// Longest path in segments (Mitsuba's max_depth; default: the scene's).
     #[arg(long)]
     pub max_depth: Option<u32>,
