@@ -22,6 +22,8 @@ pub struct BenchSettings {
     pub height: u32,
     /// Samples per pixel of each render.
     pub spp: u32,
+    /// Seed of every render.
+    pub seed: u64,
     /// Worker threads (0: one per core).
     pub threads: usize,
     /// Renders per variant; the fastest counts (the others absorb warm-up and interference).
@@ -224,6 +226,7 @@ pub fn bench(
         render_settings.height = settings.height;
         render_settings.spp = settings.spp;
         render_settings.threads = settings.threads;
+        render_settings.seed = settings.seed;
         let mut best = 0.0f64;
         let mut mean_rgb = [0.0f64; 3];
         for _ in 0..settings.repeats {
@@ -290,6 +293,7 @@ mod tests {
             width: 16,
             height: 16,
             spp: 2,
+            seed: 0,
             threads: 1,
             repeats: 1,
             aperture_radius: 0.1,
@@ -325,6 +329,7 @@ mod tests {
             width: 8,
             height: 8,
             spp: 1,
+            seed: 0,
             threads: 1,
             repeats: 0,
             aperture_radius: 0.1,

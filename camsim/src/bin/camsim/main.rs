@@ -106,5 +106,16 @@ mod tests {
             panic!("not demo")
         };
         assert_eq!((demo.render.seed, demo.render.spp), (7, Some(3)));
+        let Command::Bench {
+            what: bench::BenchCommand::Render(b),
+        } = parse(&["camsim", "bench", "render"])
+        else {
+            panic!("not bench render")
+        };
+        let r = b.flags();
+        assert_eq!(
+            (r.width, r.height, r.spp, r.seed, r.threads),
+            (Some(256), Some(256), Some(16), 0, 1)
+        );
     }
 }

@@ -8,7 +8,7 @@ use camsim::Error;
 use clap::{Args, Subcommand};
 use host_tracer::render_bench::{bench, table, BenchSettings};
 
-use crate::args::DemosaicArg;
+use crate::args::{DemosaicArg, RenderFlags};
 use crate::progress::Progress;
 
 #[derive(Subcommand)]
@@ -40,22 +40,21 @@ pub struct BenchDemosaicArgs {
 }
 
 #[derive(Args)]
+// The same render flags as render and demo, with the benchmark's defaults: a 256 x 256 image at
+// 16 spp on one thread, whatever the scene says, so figures compare across scenes.
+#[command(
+    mut_arg("width", |a| a.default_value("256").help("Image width in pixels")),
+    mut_arg("height", |a| a.default_value("256").help("Image height in pixels")),
+    mut_arg("spp", |a| a.default_value("16").help("Samples per pixel of each render")),
+    mut_arg("threads", |a| a.default_value("1"))
+)]
 pub struct BenchRenderArgs {
     /// Built-in scene or scene TOML file (RGB colours; the spectral variant converts them).
     #[arg(long, default_value = "cornell-box")]
     scene: String,
-    /// Image width.
-    #[arg(long, default_value_t = 256)]
-    width: u32,
-    /// Image height.
-    #[arg(long, default_value_t = 256)]
-    height: u32,
-    /// Samples per pixel of each render.
-    #[arg(long, default_value_t = 16)]
-    spp: u32,
-    /// Worker threads (0: one per core).
-    #[arg(long, default_value_t = 1)]
-    threads: usize,
+    /// Size, samples, seed and threads of every render.
+    #[command(flatten)]
+    render: RenderFlags,
     /// Renders per variant; the fastest is reported.
     #[arg(long, default_value_t = 3)]
     repeats: u32,
@@ -86,11 +85,14 @@ fn json<T: serde::Serialize>(value: &T) -> Result<String, Error> {
 
 fn bench_render(args: &BenchRenderArgs) -> Result<String, Error> {
     let scene = host_tracer::tracer::scene_file::load(&args.scene)?;
+    let flags = &args.render;
     let settings = BenchSettings {
-        width: args.width,
-        height: args.height,
-        spp: args.spp,
-        threads: args.threads,
+        // The defaults above always give a value.
+        width: flags.width.unwrap_or(256),
+        height: flags.height.unwrap_or(256),
+        spp: flags.spp.unwrap_or(16),
+        seed: flags.seed,
+        threads: flags.threads,
         repeats: args.repeats,
         aperture_radius: args.aperture_radius,
     };
@@ -156,4 +158,12 @@ fn bench_demosaic(args: &BenchDemosaicArgs) -> Result<String, Error> {
         ));
     }
     Ok(out)
+}
+
+impl BenchRenderArgs {
+    /// The render flags as given (for tests).
+    #[cfg(test)]
+    pub fn flags(&self) -> &RenderFlags {
+        &self.render
+    }
 }
