@@ -364,3 +364,34 @@ fn isp_config_errors_name_file_line_and_key() {
     assert!(!ok && stderr.contains("missing.toml"), "{stderr}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A real camera DNG (14-bit packed samples, masked borders, a colour matrix without a
+/// calibration illuminant) develops: the image is the active area, not black at the borders.
+#[test]
+fn isp_develops_a_real_packed_dng() {
+    let input = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../data/real-dng/canon-550d-colorchart-14bit.dng");
+    let dir = std::env::temp_dir().join(format!("camsim-isp-real-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let output = dir.join("canon.png");
+    let (ok, stdout, stderr) = camsim(&[
+        "isp",
+        "--input",
+        input.to_str().unwrap(),
+        "--output",
+        output.to_str().unwrap(),
+    ]);
+    assert!(ok, "{stderr}");
+    assert!(stdout.contains("colour matrix"), "{stdout}");
+    let rgb = imageio::read(&output).unwrap();
+    assert_eq!((rgb.width, rgb.height), (1734, 1156));
+    // The masked borders (black) were cropped: the first and last columns see the scene.
+    let column_mean = |x: usize| {
+        (0..rgb.height)
+            .map(|y| rgb.data[3 * (y * rgb.width + x) + 1] as f64)
+            .sum::<f64>()
+            / rgb.height as f64
+    };
+    assert!(column_mean(0) > 5.0 && column_mean(rgb.width - 1) > 5.0);
+    std::fs::remove_dir_all(&dir).ok();
+}

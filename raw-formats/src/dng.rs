@@ -6,8 +6,10 @@
 //! reads these files; the oracle suite checks it.
 //!
 //! The reader takes what camsim writes and the common case of other writers: either byte
-//! order, the raw image in IFD 0 or in a SubIFD (NewSubfileType 0), 8- or 16-bit samples in
-//! strips, a 2x2 CFA of R, G, B, black level as one value or one per 2x2 position. Compressed,
+//! order, the raw image in IFD 0 or in a SubIFD (NewSubfileType 0), uncompressed samples of 8
+//! to 16 bits in strips (narrower than 16 bits packed most significant bit first, each row
+//! starting on a byte boundary), cropped to the ActiveArea so masked borders never reach the
+//! image, a 2x2 CFA of R, G, B, black level as one value or one per 2x2 position. Compressed,
 //! tiled or linear DNGs are refused with an error that says so. Every offset and count is
 //! checked against the file, so a damaged file gives an error, never a panic.
 //!
@@ -174,30 +176,32 @@ pub struct DngColour {
 
 impl DngColour {
     /// isp-core's calibration from the colour matrices (each inverted to camera-to-XYZ, at its
-    /// illuminant's temperature); `None` when the file has none. An illuminant without a known
-    /// temperature is refused.
+    /// illuminant's temperature); `None` when the file has none. A single matrix is used at
+    /// every temperature, whatever its illuminant (the DNG specification allows it without
+    /// one); two need illuminants of known temperature to be interpolated.
     pub fn to_calibration(&self) -> Result<Option<Calibration>> {
-        let mut entries = Vec::new();
-        for c in &self.calibrations {
-            let cct = c.illuminant.cct_k().ok_or(FormatError::Unsupported {
+        let to_xyz = |c: &ColourCalibration| {
+            colour::mat3_inverse(&c.color_matrix).map_err(|source| FormatError::Colour {
+                field: "ColorMatrix",
+                source,
+            })
+        };
+        let cct = |c: &ColourCalibration| {
+            c.illuminant.cct_k().ok_or(FormatError::Unsupported {
                 field: "calibration illuminant code",
                 value: c.illuminant.code().to_string(),
-                supported: "A, D50, D55, D65, D75 have a known colour temperature",
-            })?;
-            let to_xyz =
-                colour::mat3_inverse(&c.color_matrix).map_err(|source| FormatError::Colour {
-                    field: "ColorMatrix",
-                    source,
-                })?;
-            entries.push((cct, to_xyz));
-        }
-        match entries.as_slice() {
-            [] => Ok(None),
-            [(t, m)] => Calibration::single(*t, *m).map(Some),
-            [(t1, m1), (t2, m2)] => Calibration::new([*t1, *t2], [*m1, *m2]).map(Some),
-            _ => Ok(None),
-        }
-        .map_err(|source| FormatError::Colour {
+                supported:
+                    "with two colour matrices, A, D50, D55, D65 or D75 (a known temperature)",
+            })
+        };
+        let calibration = match self.calibrations.as_slice() {
+            [] => return Ok(None),
+            // One matrix holds at every temperature; the temperature only labels it.
+            [c] => Calibration::single(c.illuminant.cct_k().unwrap_or(6504.0), to_xyz(c)?),
+            [a, b] => Calibration::new([cct(a)?, cct(b)?], [to_xyz(a)?, to_xyz(b)?]),
+            _ => return Ok(None),
+        };
+        calibration.map(Some).map_err(|source| FormatError::Colour {
             field: "colour matrices",
             source,
         })
@@ -247,6 +251,7 @@ const UNIQUE_CAMERA_MODEL: u16 = 50708;
 const BLACK_LEVEL_REPEAT_DIM: u16 = 50713;
 const BLACK_LEVEL: u16 = 50714;
 const WHITE_LEVEL: u16 = 50717;
+const ACTIVE_AREA: u16 = 50829;
 const COLOR_MATRIX_1: u16 = 50721;
 const COLOR_MATRIX_2: u16 = 50722;
 const CAMERA_CALIBRATION_1: u16 = 50723;
@@ -742,7 +747,7 @@ impl<'a> Tiff<'a> {
             });
         }
         let bits = self.one(ifd, BITS_PER_SAMPLE, "BitsPerSample")?;
-        if bits != 8 && bits != 16 {
+        if !(8..=16).contains(&bits) {
             return Err(FormatError::SampleBits { bits });
         }
         let compression = ifd
@@ -811,8 +816,10 @@ impl<'a> Tiff<'a> {
                 expected: offsets.len(),
             });
         }
-        let bytes_per_sample = bits as usize / 8;
-        let needed = width * height * bytes_per_sample;
+        // Rows start on a byte boundary; samples narrower than 16 bits are packed most
+        // significant bit first whatever the byte order (TIFF 6.0, DNG 1.4 "Data packing").
+        let row_bytes = (width * bits as usize).div_ceil(8);
+        let needed = row_bytes * height;
         // Capacity bounded by the file: a damaged size cannot ask for gigabytes.
         let mut pixels = Vec::with_capacity(needed.min(self.data.len()));
         for (o, c) in offsets.iter().zip(&counts) {
@@ -828,22 +835,29 @@ impl<'a> Tiff<'a> {
                 expected: needed,
             });
         }
-        let raw: Vec<u16> = if bits == 8 {
-            pixels[..needed].iter().map(|v| *v as u16).collect()
-        } else {
-            pixels[..needed]
-                .chunks_exact(2)
-                .map(|b| {
+        let mut raw = Vec::with_capacity(width * height);
+        for row in pixels[..needed].chunks_exact(row_bytes) {
+            match bits {
+                8 => raw.extend(row.iter().map(|v| *v as u16)),
+                16 => raw.extend(row.chunks_exact(2).map(|b| {
                     if self.little {
                         u16::from_le_bytes([b[0], b[1]])
                     } else {
                         u16::from_be_bytes([b[0], b[1]])
                     }
-                })
-                .collect()
+                })),
+                _ => unpack_msb_first(row, bits, width, &mut raw),
+            }
+        }
+        let (width, height, raw) = match ifd.get(ACTIVE_AREA) {
+            Some(e) => {
+                let area = self.values(e)?;
+                crop_to_active_area(raw, width, height, &area)?
+            }
+            None => (width, height, raw),
         };
 
-        let max = if bits == 8 { 255 } else { 65535 };
+        let max = ((1u32 << bits) - 1) as u16;
         let white = match ifd.get(WHITE_LEVEL) {
             Some(e) => self
                 .numbers(e)?
@@ -964,6 +978,60 @@ impl<'a> Tiff<'a> {
             colour,
         })
     }
+}
+
+/// Appends `width` samples of `bits` bits (9..=15), packed most significant bit first, from one
+/// row's bytes (which hold at least `width * bits` bits).
+fn unpack_msb_first(row: &[u8], bits: u32, width: usize, out: &mut Vec<u16>) {
+    let mask = (1u32 << bits) - 1;
+    let (mut acc, mut held) = (0u32, 0u32);
+    let mut bytes = row.iter();
+    for _ in 0..width {
+        while held < bits {
+            // The caller sized the row for `width` samples; a missing byte reads as zero.
+            acc = (acc << 8) | u32::from(bytes.next().copied().unwrap_or(0));
+            held += 8;
+        }
+        held -= bits;
+        out.push(((acc >> held) & mask) as u16);
+        acc &= (1 << held) - 1;
+    }
+}
+
+/// The samples inside ActiveArea (`[top, left, bottom, right]`): the masked borders around it
+/// never reach the image. The CFA pattern and black levels are relative to its top-left corner.
+fn crop_to_active_area(
+    raw: Vec<u16>,
+    width: usize,
+    height: usize,
+    area: &[u32],
+) -> Result<(usize, usize, Vec<u16>)> {
+    let [top, left, bottom, right] = match area {
+        [t, l, b, r] => [*t, *l, *b, *r].map(|v| v as usize),
+        _ => {
+            return Err(FormatError::Unsupported {
+                field: "ActiveArea value count",
+                value: area.len().to_string(),
+                supported: "4: top, left, bottom, right",
+            })
+        }
+    };
+    if !(top < bottom && bottom <= height && left < right && right <= width) {
+        return Err(FormatError::OutOfRange {
+            field: "ActiveArea",
+            value: format!("{area:?}"),
+            allowed: format!("top < bottom <= {height}, left < right <= {width}"),
+        });
+    }
+    if (top, left, bottom, right) == (0, 0, height, width) {
+        return Ok((width, height, raw));
+    }
+    let (w, h) = (right - left, bottom - top);
+    let mut out = Vec::with_capacity(w * h);
+    for row in raw.chunks_exact(width).skip(top).take(h) {
+        out.extend_from_slice(&row[left..right]);
+    }
+    Ok((w, h, out))
 }
 
 /// The tags of calibration 1 and 2.
@@ -1088,12 +1156,74 @@ mod tests {
                 assert!((v - if i == j { 1.0 } else { 0.0 }).abs() < 2e-3, "{ccm:?}");
             }
         }
-        let unknown = DngColour {
-            calibrations: vec![ColourCalibration::new(Illuminant::Other(0), m)],
+        // One matrix without a known illuminant is used as is; two need temperatures.
+        let unknown =
+            ColourCalibration::new(Illuminant::Other(0), colour.calibrations[0].color_matrix);
+        let single = DngColour {
+            calibrations: vec![unknown],
             ..DngColour::default()
         };
-        assert!(unknown.to_calibration().is_err());
+        assert_eq!(single.to_calibration().unwrap(), Some(cal));
+        let two = DngColour {
+            calibrations: vec![unknown, colour.calibrations[0]],
+            ..DngColour::default()
+        };
+        assert!(two.to_calibration().is_err());
         assert_eq!(DngColour::default().to_calibration().unwrap(), None);
+    }
+
+    /// Packs `values` of `bits` bits most significant bit first, as DNG writers do.
+    fn pack(values: &[u16], bits: u32) -> Vec<u8> {
+        let mut out = Vec::new();
+        let (mut acc, mut held) = (0u64, 0u32);
+        for v in values {
+            acc = (acc << bits) | u64::from(*v);
+            held += bits;
+            while held >= 8 {
+                held -= 8;
+                out.push((acc >> held) as u8);
+            }
+        }
+        if held > 0 {
+            out.push((acc << (8 - held)) as u8);
+        }
+        out
+    }
+
+    #[test]
+    fn packed_samples_unpack_most_significant_bit_first() {
+        let mut out = Vec::new();
+        unpack_msb_first(&[0xab, 0xc1, 0x23], 12, 2, &mut out);
+        assert_eq!(out, [0xabc, 0x123]);
+        for bits in 9..=15u32 {
+            let max = (1u32 << bits) - 1;
+            let values: Vec<u16> = (0..37u32)
+                .map(|i| (i.wrapping_mul(2654435761) % (max + 1)) as u16)
+                .collect();
+            let mut out = Vec::new();
+            unpack_msb_first(&pack(&values, bits), bits, values.len(), &mut out);
+            assert_eq!(out, values, "{bits} bits");
+        }
+    }
+
+    #[test]
+    fn active_area_crops_the_masked_borders() {
+        let raw: Vec<u16> = (0..20).collect(); // 5 x 4
+        let (w, h, inner) = crop_to_active_area(raw.clone(), 5, 4, &[1, 2, 3, 5]).unwrap();
+        assert_eq!((w, h, inner), (3, 2, vec![7, 8, 9, 12, 13, 14]));
+        assert_eq!(
+            crop_to_active_area(raw.clone(), 5, 4, &[0, 0, 4, 5])
+                .unwrap()
+                .2,
+            raw
+        );
+        for bad in [[2, 0, 2, 5], [0, 0, 5, 5], [0, 3, 4, 3]] {
+            assert!(
+                crop_to_active_area(raw.clone(), 5, 4, &bad).is_err(),
+                "{bad:?}"
+            );
+        }
+        assert!(crop_to_active_area(raw, 5, 4, &[0, 0, 4]).is_err());
     }
 
     #[test]

@@ -165,7 +165,7 @@ impl fmt::Display for FormatError {
                 write!(f, "TIFF field with {count} values is too long")
             }
             Self::SampleBits { bits } => {
-                write!(f, "{bits}-bit samples are not supported (8 and 16 are)")
+                write!(f, "{bits}-bit samples are not supported (8 to 16 are)")
             }
             Self::Compression { value } => write!(
                 f,
