@@ -79,18 +79,6 @@ impl Demosaic {
         }
     }
 
-    /// Parses a name; the error lists the choices.
-    pub fn parse(s: &str) -> Result<Self, Error> {
-        Self::ALL
-            .into_iter()
-            .find(|m| m.name() == s)
-            .ok_or_else(|| Error::Option {
-                option: "--method",
-                value: format!("{s:?}"),
-                allowed: format!("one of {}", Self::ALL.map(|m| m.name()).join(", ")),
-            })
-    }
-
     /// Demosaics `data` (`w` x `h`, pattern `p`) into `out` (3 samples per pixel).
     pub fn run<T: IntSample>(
         self,
