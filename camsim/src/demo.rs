@@ -374,13 +374,8 @@ pub fn run(
     let response = Response::named(&args.camera)?;
     let spectral = !image.bands.is_empty();
     let camera_rgb = response.camera_rgb(&image.bands, &image.rgb);
-    let cam = &scene.camera;
-    let sensor_mm = cam.sensor_mm(image.width, image.height);
-    let lens = LensGeometry::thin_lens(
-        cam.focal_length_mm as f64,
-        cam.aperture_radius_mm as f64,
-        [sensor_mm.x as f64, sensor_mm.y as f64],
-    );
+    let (focal_mm, aperture_mm, sensor_mm) = scene.camera.lens_mm(image.width, image.height);
+    let lens = LensGeometry::thin_lens(focal_mm, aperture_mm, sensor_mm);
     let capture = sensor::capture(&camera_rgb, w, h, lens, &config)?;
     let sensor_s = sensor_start.elapsed().as_secs_f64();
 

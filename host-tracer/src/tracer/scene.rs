@@ -163,6 +163,18 @@ impl CameraDesc {
         }
     }
 
+    /// The thin lens in millimetres for a `width` x `height` image, as plain numbers for
+    /// whatever models the optics beyond the tracer (the sensor's `LensGeometry::thin_lens`):
+    /// focal length, aperture radius (0 for a pinhole) and sensor width and height.
+    pub fn lens_mm(&self, width: u32, height: u32) -> (f64, f64, [f64; 2]) {
+        let sensor = self.sensor_mm(width, height);
+        (
+            self.focal_length_mm as f64,
+            self.aperture_radius_mm as f64,
+            [sensor.x as f64, sensor.y as f64],
+        )
+    }
+
     /// Focus distance in scene units.
     pub fn focus_distance(&self) -> f32 {
         self.focus_distance
