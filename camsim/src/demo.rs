@@ -415,6 +415,7 @@ pub fn run(
             as_shot_neutral: Some(awb.neutral.map(|v| v as f64)),
             ..dng_colour
         },
+        framing: Default::default(),
     };
     dng.write(&out("raw.dng"))?;
     raw_formats::image::write(

@@ -21,11 +21,12 @@ use isp_core::pipeline::{FixedPipeline, FloatPipeline, IspConfig, OutputSample};
 use isp_core::tone::Look;
 use isp_core::wb::{self, AwbEstimate};
 use isp_core::IspError;
-use raw_formats::dng::Dng;
+use raw_formats::dng::{Dng, Framing};
+use raw_formats::framing::Orientation;
 use raw_formats::{FormatError, Image, RawImage};
 
 use crate::error::Error;
-use crate::isp_options::{IspOptions, WhiteBalance};
+use crate::isp_options::{CropChoice, IspOptions, WhiteBalance};
 
 /// What a run did, for the printed report.
 #[derive(Debug, Clone)]
@@ -44,6 +45,8 @@ pub struct IspReport {
     pub stage_ms: Vec<(&'static str, f64)>,
     /// Milliseconds of the whole pipeline.
     pub total_ms: f64,
+    /// How the output was cropped and turned, when the file asked for either.
+    pub framing: Option<String>,
 }
 
 impl IspReport {
@@ -69,6 +72,9 @@ impl IspReport {
                 "distortion: k1 {k1} k2 {k2} p1 {p1} p2 {p2} k3 {k3}, camera fx {fx} fy {fy} cx {cx} cy {cy}, window {window} rows\n"
             );
         }
+        if let Some(framing) = &self.framing {
+            out += &format!("framing: {framing}\n");
+        }
         out += "time per stage (ms, by ablation):\n";
         for (name, ms) in &self.stage_ms {
             out += &format!("  {name:<28} {ms:>9.2}\n");
@@ -90,6 +96,8 @@ pub struct RawInput {
     pub defaults: IspOptions,
     /// The file's colour calibration.
     pub calibration: Option<Calibration>,
+    /// The file's recommended crop and orientation.
+    pub framing: Framing,
 }
 
 impl RawInput {
@@ -100,6 +108,7 @@ impl RawInput {
             raw,
             defaults: IspOptions::default(),
             calibration: None,
+            framing: Framing::default(),
         }
     }
 
@@ -127,6 +136,7 @@ impl RawInput {
             container_bits: 16,
             defaults,
             calibration,
+            framing: dng.framing,
         })
     }
 }
@@ -243,7 +253,39 @@ pub fn develop(
     let out_bits = options.out_bits.unwrap_or(8);
     let (mut report, rgb) = execute(&raw, &config, fixed, out_bits)?;
     report.awb = awb;
+    let (rgb, framing) = frame(rgb, &input.framing, options.crop.unwrap_or_default())?;
+    report.framing = framing;
     Ok((report, rgb))
+}
+
+/// Crops the developed image as `choice` and the file say, then turns it upright; with what
+/// was done, if anything, for the report.
+fn frame(
+    rgb: Image,
+    framing: &Framing,
+    choice: CropChoice,
+) -> Result<(Image, Option<String>), Error> {
+    let mut done = Vec::new();
+    let rgb = match (choice, framing.default_crop) {
+        (CropChoice::Default, Some(crop))
+            if (crop.width, crop.height) != (rgb.width, rgb.height) =>
+        {
+            done.push(format!(
+                "the file's default crop, {}x{} at ({}, {}) (--crop active keeps the whole {}x{})",
+                crop.width, crop.height, crop.left, crop.top, rgb.width, rgb.height
+            ));
+            rgb.cropped(crop)?
+        }
+        _ => rgb,
+    };
+    let rgb = match framing.orientation {
+        Orientation::Normal => rgb,
+        o => {
+            done.push(format!("turned upright (Orientation {})", o.to_tiff()));
+            rgb.oriented(o)
+        }
+    };
+    Ok((rgb, (!done.is_empty()).then(|| done.join("; "))))
 }
 
 /// Runs the pipeline on `raw` with `config` (float or fixed path, 8- or 16-bit output) and
@@ -323,6 +365,7 @@ pub fn execute(
         fixed,
         stage_ms,
         total_ms,
+        framing: None,
     };
     let rgb = Image {
         width: w,

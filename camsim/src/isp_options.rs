@@ -187,6 +187,29 @@ pub struct IspOptions {
     pub distortion: Option<[f64; 5]>,
     /// Camera matrix `[fx, fy, cx, cy]`.
     pub camera_matrix: Option<[f64; 4]>,
+    /// The output's framing: the file's recommended crop, or the whole active area.
+    pub crop: Option<CropChoice>,
+}
+
+/// Which part of the raw's active area the developed image shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum CropChoice {
+    /// The file's DefaultCrop, as Adobe's raw converters frame it (the whole active area if
+    /// the file has none).
+    #[default]
+    Default,
+    /// The whole active area, as LibRaw frames it.
+    Active,
+}
+
+impl CropChoice {
+    /// The name the command line and config file use.
+    pub fn name(self) -> &'static str {
+        match self {
+            CropChoice::Default => "default",
+            CropChoice::Active => "active",
+        }
+    }
 }
 
 impl IspOptions {
@@ -210,6 +233,7 @@ impl IspOptions {
             out_bits: self.out_bits.or(fallback.out_bits),
             distortion: self.distortion.or(fallback.distortion),
             camera_matrix: self.camera_matrix.or(fallback.camera_matrix),
+            crop: self.crop.or(fallback.crop),
         }
     }
 }
@@ -252,6 +276,14 @@ pub fn path(text: &str, what: &str) -> Result<bool> {
             format!("{other:?}"),
         )),
     }
+}
+
+/// `default` or `active`.
+pub fn crop(text: &str, what: &str) -> Result<CropChoice> {
+    [CropChoice::Default, CropChoice::Active]
+        .into_iter()
+        .find(|c| c.name() == text)
+        .ok_or_else(|| OptionError::not_allowed(what, "default or active", format!("{text:?}")))
 }
 
 /// 8 or 16.
@@ -320,7 +352,7 @@ pub fn camera_matrix(values: Vec<f64>, what: &str) -> Result<[f64; 4]> {
 }
 
 /// The file's keys, each the name of a flag (or a table the command line has no flag for).
-const KEYS: [&str; 18] = [
+const KEYS: [&str; 19] = [
     "pattern",
     "bits",
     "black-level",
@@ -339,6 +371,7 @@ const KEYS: [&str; 18] = [
     "out-bits",
     "distortion",
     "camera-matrix",
+    "crop",
 ];
 
 /// One value of the file, with where it is for error messages.
@@ -491,6 +524,7 @@ pub fn from_toml(text: &str, file: &Path) -> Result<IspOptions> {
             "camera-matrix" => {
                 options.camera_matrix = Some(f.check(camera_matrix(f.numbers()?, key))?)
             }
+            "crop" => options.crop = Some(f.check(crop(f.string()?, key))?),
             other => {
                 return Err(f.error(format!(
                     "unknown key {other:?}; known keys: {}",

@@ -66,8 +66,13 @@ pub enum FormatError {
         /// The TIFF Compression value.
         value: u32,
     },
-    /// The image is stored in tiles; this reader takes strips.
-    Tiled,
+    /// A lossless JPEG stream is damaged or uses what this decoder does not support.
+    LosslessJpeg {
+        /// Byte offset in the stream where it went wrong.
+        offset: usize,
+        /// What was wrong.
+        problem: &'static str,
+    },
     /// A field holds a value this reader does not support.
     Unsupported {
         /// The field.
@@ -167,11 +172,21 @@ impl fmt::Display for FormatError {
             Self::SampleBits { bits } => {
                 write!(f, "{bits}-bit samples are not supported (8 to 16 are)")
             }
-            Self::Compression { value } => write!(
-                f,
-                "compression {value} is not supported, only uncompressed (1); convert with Adobe DNG Converter's uncompressed option"
-            ),
-            Self::Tiled => f.write_str("tiled DNGs are not supported, only strips"),
+            Self::Compression { value } => {
+                let name = match value {
+                    8 | 32946 => " (deflate)",
+                    34892 => " (lossy JPEG)",
+                    52546 => " (JPEG XL)",
+                    _ => "",
+                };
+                write!(
+                    f,
+                    "Compression {value}{name} is not supported (1, uncompressed, and 7, lossless JPEG, are)"
+                )
+            }
+            Self::LosslessJpeg { offset, problem } => {
+                write!(f, "lossless JPEG: {problem} (at byte {offset} of the stream)")
+            }
             Self::Unsupported {
                 field,
                 value,

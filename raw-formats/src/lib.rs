@@ -22,8 +22,10 @@ pub mod calibration;
 pub mod dng;
 mod error;
 pub mod exr;
+pub mod framing;
 pub mod fuzzing;
 pub mod image;
+pub mod lossless_jpeg;
 mod raw_image;
 
 pub use error::{FormatError, Result};

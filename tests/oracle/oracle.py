@@ -232,6 +232,25 @@ def op_rawpy_read(args, arrays):
         ]
 
 
+def op_rawpy_develop(args, arrays):
+    """args: path of a DNG. Returns LibRaw's development (H,W,3) u8: bilinear demosaic, the
+    camera's white balance, sRGB primaries and curve, no automatic brightening, and the white
+    level as the file states it (adjust_maximum_thr 0: LibRaw otherwise lowers it to the
+    frame's largest sample when that is above 75 % of it)."""
+    import rawpy
+
+    with rawpy.imread(args["path"]) as raw:
+        rgb = raw.postprocess(
+            demosaic_algorithm=rawpy.DemosaicAlgorithm.LINEAR,
+            use_camera_wb=True,
+            no_auto_bright=True,
+            output_bps=8,
+            gamma=(2.4, 12.92),
+            adjust_maximum_thr=0.0,
+        )
+    return {}, [np.array(rgb, dtype=np.uint8)]
+
+
 OPS = {name[3:]: fn for name, fn in globals().items() if name.startswith("op_")}
 
 

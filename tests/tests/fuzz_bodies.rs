@@ -206,6 +206,7 @@ fn valid_dng() -> Vec<u8> {
             as_shot_neutral: Some([0.5, 1.0, 0.7]),
             ..DngColour::default()
         },
+        framing: Default::default(),
     }
     .encode()
     .unwrap()

@@ -3,6 +3,7 @@
 //! library's type). A value outside an enum gets one line listing the choices (see
 //! [`invalid_value_message`]).
 
+use camsim::isp_options::CropChoice;
 use clap::{Args, ValueEnum};
 use isp_core::demosaic::{Border, Method};
 use isp_core::tone::Look;
@@ -134,6 +135,24 @@ impl From<LookArg> for Look {
     }
 }
 
+/// The framing of a developed DNG.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum CropArg {
+    /// The file's DefaultCrop (Adobe's framing).
+    Default,
+    /// The whole active area (LibRaw's framing).
+    Active,
+}
+
+impl From<CropArg> for CropChoice {
+    fn from(c: CropArg) -> Self {
+        match c {
+            CropArg::Default => CropChoice::Default,
+            CropArg::Active => CropChoice::Active,
+        }
+    }
+}
+
 /// The ISP's arithmetic.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum PathArg {
@@ -234,6 +253,9 @@ mod tests {
         for v in PipelineDemosaicArg::value_variants() {
             assert_eq!(name(v), Method::from(*v).name());
             assert!(Method::from(*v).streams());
+        }
+        for v in CropArg::value_variants() {
+            assert_eq!(name(v), CropChoice::from(*v).name());
         }
         for v in LookArg::value_variants() {
             assert_eq!(name(v), Look::from(*v).name());

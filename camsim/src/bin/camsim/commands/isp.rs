@@ -11,13 +11,14 @@ use camsim::Error;
 use clap::Args;
 use raw_formats::calibration::CalibrationFile;
 
-use crate::args::{AwbArg, LookArg, PathArg, PatternArg, PipelineDemosaicArg};
+use crate::args::{AwbArg, CropArg, LookArg, PathArg, PatternArg, PipelineDemosaicArg};
 
 /// The options of `camsim isp`. Every processing option can also come from `--config FILE`
 /// (see [`crate::isp_options`]); a flag given here wins over the file.
 #[derive(Args, Debug, Clone)]
 pub struct IspArgs {
-    /// Input: a DNG (uncompressed CFA), or a single-channel 8- or 16-bit PNG or PGM mosaic.
+    /// Input: a CFA DNG (uncompressed or lossless JPEG), or a single-channel 8- or 16-bit PNG
+    /// or PGM mosaic.
     #[arg(long)]
     pub input: PathBuf,
     /// Output sRGB image (.png or .ppm).
@@ -82,6 +83,10 @@ pub struct IspArgs {
     /// Output depth: 8 or 16 [default: 8].
     #[arg(long)]
     pub out_bits: Option<u8>,
+    /// Framing of a DNG's output: `default` crops to the file's DefaultCrop, as Adobe's raw
+    /// converters do; `active` keeps the whole active area, as LibRaw does [default: default].
+    #[arg(long, value_enum)]
+    pub crop: Option<CropArg>,
 }
 
 impl IspArgs {
@@ -127,6 +132,7 @@ impl IspArgs {
             camera_matrix: list(&self.camera_matrix, "--camera-matrix", &[4])?
                 .map(|v| options::camera_matrix(v, "--camera-matrix"))
                 .transpose()?,
+            crop: self.crop.map(Into::into),
         })
     }
 

@@ -1,0 +1,663 @@
+//! Raw DNG files: a reader for camera DNGs and a writer for camsim's captures.
+//!
+//! The reader ([`Dng::decode`]) follows the DNG 1.4 specification for CFA raws: either byte
+//! order; the raw image in IFD 0 or any SubIFD (NewSubfileType 0); samples of 8 to 16 bits,
+//! uncompressed (narrower than 16 bits packed most significant bit first, rows starting on a
+//! byte boundary) or lossless JPEG (Compression 7, [`crate::lossless_jpeg`]); strips or tiles
+//! (edge tiles padded); LinearizationTable; BlackLevel with any BlackLevelRepeatDim and
+//! BlackLevelDeltaH/V; WhiteLevel; ActiveArea (masked borders never reach the image); a 2x2
+//! CFA of R, G, B. DefaultCrop and Orientation are read into [`Framing`] for the developer to
+//! apply to its output. Anything else (other compressions, linear DNGs, non-Bayer CFAs) is
+//! refused with an error naming the tag and its value. Every offset and count is checked
+//! against the file, and every buffer is sized only after the file has been shown to hold
+//! enough bytes for it, so a damaged file gives an error, never a panic or a huge allocation.
+//!
+//! The writer ([`Dng::encode`], [`Dng::encode_with`]) makes a CFA DNG (version 1.4) in either
+//! byte order, uncompressed at 8 to 16 bits or lossless-JPEG compressed, in one strip or in
+//! tiles, with the tags a raw converter needs: CFA pattern, black and white level, one or two
+//! colour matrices with their calibration illuminants, the as-shot neutral, and the framing.
+//! LibRaw (rawpy) reads these files; the oracle suite checks it.
+//!
+//! A file's colour tags are held as the file states them in [`DngColour`], which is also the
+//! one place that converts them to and from isp-core's [`Calibration`].
+//!
+//! ```
+//! use raw_formats::dng::{ColourCalibration, Dng, DngColour, EncodeOptions, Illuminant, Storage};
+//! use raw_formats::RawImage;
+//! use isp_core::CfaPattern;
+//! let image = RawImage::new(4, 2, CfaPattern::Grbg, 10, [64; 4], 1023,
+//!     (0..8).map(|i| 100 * i).collect()).unwrap();
+//! let dng = Dng {
+//!     image,
+//!     camera_model: "camsim test".into(),
+//!     colour: DngColour {
+//!         calibrations: vec![ColourCalibration::new(
+//!             Illuminant::D65,
+//!             [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+//!         )],
+//!         as_shot_neutral: Some([0.5, 1.0, 0.8]),
+//!         ..DngColour::default()
+//!     },
+//!     framing: Default::default(),
+//! };
+//! let bytes = dng.encode().unwrap();
+//! assert_eq!(Dng::decode(&bytes).unwrap(), dng);
+//! let compressed = EncodeOptions { storage: Storage::LosslessJpeg { components: 2, predictor: 1 },
+//!     ..EncodeOptions::default() };
+//! assert_eq!(Dng::decode(&dng.encode_with(&compressed).unwrap()).unwrap(), dng);
+//! ```
+
+use std::path::Path;
+
+use isp_core::ccm::Calibration;
+use isp_core::colour::{self, Mat3};
+use isp_core::CfaPattern;
+
+use crate::error::{FormatError, Result};
+pub use crate::framing::{Crop, Orientation};
+use crate::raw_image::RawImage;
+
+mod read;
+mod tiff;
+mod write;
+
+use tags::*;
+pub use write::{EncodeOptions, Storage};
+
+/// A calibration illuminant by its EXIF LightSource code.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Illuminant {
+    /// Standard light A (code 17), 2856 K.
+    A,
+    /// D50 (code 23).
+    D50,
+    /// D55 (code 20).
+    D55,
+    /// D65 (code 21).
+    D65,
+    /// D75 (code 22).
+    D75,
+    /// Any other code, kept as read.
+    Other(u16),
+}
+
+impl Illuminant {
+    /// The EXIF LightSource code.
+    pub fn code(self) -> u16 {
+        match self {
+            Illuminant::A => 17,
+            Illuminant::D50 => 23,
+            Illuminant::D55 => 20,
+            Illuminant::D65 => 21,
+            Illuminant::D75 => 22,
+            Illuminant::Other(c) => c,
+        }
+    }
+
+    /// From an EXIF LightSource code.
+    pub fn from_code(code: u16) -> Self {
+        match code {
+            17 => Illuminant::A,
+            23 => Illuminant::D50,
+            20 => Illuminant::D55,
+            21 => Illuminant::D65,
+            22 => Illuminant::D75,
+            c => Illuminant::Other(c),
+        }
+    }
+
+    /// Correlated colour temperature in kelvin, for the codes that have one.
+    pub fn cct_k(self) -> Option<f64> {
+        match self {
+            Illuminant::A => Some(2856.0),
+            Illuminant::D50 => Some(5003.0),
+            Illuminant::D55 => Some(5503.0),
+            Illuminant::D65 => Some(6504.0),
+            Illuminant::D75 => Some(7504.0),
+            Illuminant::Other(_) => None,
+        }
+    }
+
+    /// By the name the spectral tables and the command line use (`A`, `D50`, `D65`, ...).
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "A" => Some(Illuminant::A),
+            "D50" => Some(Illuminant::D50),
+            "D55" => Some(Illuminant::D55),
+            "D65" => Some(Illuminant::D65),
+            "D75" => Some(Illuminant::D75),
+            _ => None,
+        }
+    }
+}
+
+/// One of a DNG's (at most two) colour calibrations, as the file states it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ColourCalibration {
+    /// CalibrationIlluminant1/2.
+    pub illuminant: Illuminant,
+    /// ColorMatrix1/2: XYZ to reference camera RGB.
+    pub color_matrix: Mat3,
+    /// ForwardMatrix1/2 (white-balanced camera RGB to XYZ D50), if the file has it.
+    pub forward_matrix: Option<Mat3>,
+    /// CameraCalibration1/2 (reference to this individual camera), if the file has it.
+    pub camera_calibration: Option<Mat3>,
+}
+
+impl ColourCalibration {
+    /// A calibration with only a colour matrix.
+    pub fn new(illuminant: Illuminant, color_matrix: Mat3) -> Self {
+        Self {
+            illuminant,
+            color_matrix,
+            forward_matrix: None,
+            camera_calibration: None,
+        }
+    }
+
+    /// The DNG ColorMatrix for a measured camera-to-XYZ matrix: its inverse (XYZ to camera),
+    /// scaled so the calibration illuminant's white (`white_xyz`) has a largest camera channel
+    /// of 1, Adobe's convention.
+    pub fn from_camera_to_xyz(
+        illuminant: Illuminant,
+        camera_to_xyz: &Mat3,
+        white_xyz: [f64; 3],
+    ) -> Result<Self> {
+        let xyz_to_camera =
+            colour::mat3_inverse(camera_to_xyz).map_err(|source| FormatError::Colour {
+                field: "camera-to-XYZ matrix",
+                source,
+            })?;
+        let cam = colour::mat3_mul_vec(&xyz_to_camera, white_xyz);
+        let peak = cam.iter().copied().fold(0.0, f64::max);
+        let scaled = xyz_to_camera.map(|r| r.map(|v| v / peak.max(1e-12)));
+        Ok(Self::new(illuminant, scaled))
+    }
+}
+
+/// A camera's colour metadata as a DNG states it. [`DngColour::to_calibration`] is the one
+/// conversion to isp-core's [`Calibration`]; [`ColourCalibration::from_camera_to_xyz`] the
+/// one conversion from a measured matrix.
+///
+/// ForwardMatrix, CameraCalibration and AnalogBalance are read and written but not yet used
+/// by [`DngColour::to_calibration`], which follows ColorMatrix alone.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct DngColour {
+    /// ColorMatrix1/2 with their illuminants (and the matrices that go with them), at most two.
+    pub calibrations: Vec<ColourCalibration>,
+    /// AnalogBalance, if the file has it.
+    pub analog_balance: Option<[f64; 3]>,
+    /// AsShotNeutral: the white balance as shot, the illuminant's colour in camera RGB.
+    pub as_shot_neutral: Option<[f64; 3]>,
+}
+
+impl DngColour {
+    /// isp-core's calibration from the colour matrices (each inverted to camera-to-XYZ, at its
+    /// illuminant's temperature); `None` when the file has none. A single matrix is used at
+    /// every temperature, whatever its illuminant (the DNG specification allows it without
+    /// one); two need illuminants of known temperature to be interpolated.
+    pub fn to_calibration(&self) -> Result<Option<Calibration>> {
+        let to_xyz = |c: &ColourCalibration| {
+            colour::mat3_inverse(&c.color_matrix).map_err(|source| FormatError::Colour {
+                field: "ColorMatrix",
+                source,
+            })
+        };
+        let cct = |c: &ColourCalibration| {
+            c.illuminant.cct_k().ok_or(FormatError::Unsupported {
+                field: "calibration illuminant code",
+                value: c.illuminant.code().to_string(),
+                supported:
+                    "with two colour matrices, A, D50, D55, D65 or D75 (a known temperature)",
+            })
+        };
+        let calibration = match self.calibrations.as_slice() {
+            [] => return Ok(None),
+            // One matrix holds at every temperature; the temperature only labels it.
+            [c] => Calibration::single(c.illuminant.cct_k().unwrap_or(6504.0), to_xyz(c)?),
+            [a, b] => Calibration::new([cct(a)?, cct(b)?], [to_xyz(a)?, to_xyz(b)?]),
+            _ => return Ok(None),
+        };
+        calibration.map(Some).map_err(|source| FormatError::Colour {
+            field: "colour matrices",
+            source,
+        })
+    }
+
+    /// White-balance gains (green 1) from the as-shot neutral.
+    pub fn as_shot_gains(&self) -> Option<[f32; 3]> {
+        self.as_shot_neutral
+            .map(|n| [(n[1] / n[0]) as f32, 1.0, (n[1] / n[2]) as f32])
+    }
+}
+
+/// A raw CFA frame with its colour metadata.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Dng {
+    /// The raw frame (size, pattern, levels, samples).
+    pub image: RawImage,
+    /// Make/model text (UniqueCameraModel).
+    pub camera_model: String,
+    /// Colour tags.
+    pub colour: DngColour,
+    /// The recommended crop and which way is up.
+    pub framing: Framing,
+}
+
+/// How the file says its image is framed, for the developer to apply to its output.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Framing {
+    /// DefaultCropOrigin/Size, in pixels of the active area (DefaultScale 1), if the file has
+    /// them.
+    pub default_crop: Option<Crop>,
+    /// Orientation (tag 274 in IFD 0).
+    pub orientation: Orientation,
+}
+
+/// Tag numbers and field types (TIFF 6.0 and DNG 1.4).
+mod tags {
+    pub(crate) const NEW_SUBFILE_TYPE: u16 = 254;
+    pub(crate) const IMAGE_WIDTH: u16 = 256;
+    pub(crate) const IMAGE_LENGTH: u16 = 257;
+    pub(crate) const BITS_PER_SAMPLE: u16 = 258;
+    pub(crate) const COMPRESSION: u16 = 259;
+    pub(crate) const PHOTOMETRIC: u16 = 262;
+    pub(crate) const MAKE: u16 = 271;
+    pub(crate) const MODEL: u16 = 272;
+    pub(crate) const STRIP_OFFSETS: u16 = 273;
+    pub(crate) const ORIENTATION: u16 = 274;
+    pub(crate) const SAMPLES_PER_PIXEL: u16 = 277;
+    pub(crate) const ROWS_PER_STRIP: u16 = 278;
+    pub(crate) const STRIP_BYTE_COUNTS: u16 = 279;
+    pub(crate) const PLANAR_CONFIGURATION: u16 = 284;
+    pub(crate) const SOFTWARE: u16 = 305;
+    pub(crate) const TILE_WIDTH: u16 = 322;
+    pub(crate) const TILE_LENGTH: u16 = 323;
+    pub(crate) const TILE_OFFSETS: u16 = 324;
+    pub(crate) const TILE_BYTE_COUNTS: u16 = 325;
+    pub(crate) const SUB_IFDS: u16 = 330;
+    pub(crate) const CFA_REPEAT_PATTERN_DIM: u16 = 33421;
+    pub(crate) const CFA_PATTERN: u16 = 33422;
+    pub(crate) const DNG_VERSION: u16 = 50706;
+    pub(crate) const DNG_BACKWARD_VERSION: u16 = 50707;
+    pub(crate) const UNIQUE_CAMERA_MODEL: u16 = 50708;
+    pub(crate) const LINEARIZATION_TABLE: u16 = 50712;
+    pub(crate) const BLACK_LEVEL_REPEAT_DIM: u16 = 50713;
+    pub(crate) const BLACK_LEVEL: u16 = 50714;
+    pub(crate) const BLACK_LEVEL_DELTA_H: u16 = 50715;
+    pub(crate) const BLACK_LEVEL_DELTA_V: u16 = 50716;
+    pub(crate) const WHITE_LEVEL: u16 = 50717;
+    pub(crate) const DEFAULT_CROP_ORIGIN: u16 = 50719;
+    pub(crate) const DEFAULT_CROP_SIZE: u16 = 50720;
+    pub(crate) const ACTIVE_AREA: u16 = 50829;
+    pub(crate) const COLOR_MATRIX_1: u16 = 50721;
+    pub(crate) const COLOR_MATRIX_2: u16 = 50722;
+    pub(crate) const CAMERA_CALIBRATION_1: u16 = 50723;
+    pub(crate) const CAMERA_CALIBRATION_2: u16 = 50724;
+    pub(crate) const ANALOG_BALANCE: u16 = 50727;
+    pub(crate) const AS_SHOT_NEUTRAL: u16 = 50728;
+    pub(crate) const CALIBRATION_ILLUMINANT_1: u16 = 50778;
+    pub(crate) const CALIBRATION_ILLUMINANT_2: u16 = 50779;
+    pub(crate) const FORWARD_MATRIX_1: u16 = 50964;
+    pub(crate) const FORWARD_MATRIX_2: u16 = 50965;
+
+    pub(crate) const CFA_PHOTOMETRIC: u32 = 32803;
+
+    // Field types.
+    pub(crate) const BYTE: u16 = 1;
+    pub(crate) const ASCII: u16 = 2;
+    pub(crate) const SHORT: u16 = 3;
+    pub(crate) const LONG: u16 = 4;
+    pub(crate) const RATIONAL: u16 = 5;
+    pub(crate) const SRATIONAL: u16 = 10;
+}
+
+/// The CFA colour codes (0 red, 1 green, 2 blue) of a pattern's 2x2 block, row by row.
+fn cfa_codes(pattern: CfaPattern) -> [u8; 4] {
+    std::array::from_fn(|p| pattern.colour_at(p % 2, p / 2).index() as u8)
+}
+
+/// The tags of calibration 1 and 2.
+struct CalibrationTags {
+    color_matrix: u16,
+    illuminant: u16,
+    forward_matrix: u16,
+    camera_calibration: u16,
+}
+
+const CALIBRATION_TAGS: [CalibrationTags; 2] = [
+    CalibrationTags {
+        color_matrix: COLOR_MATRIX_1,
+        illuminant: CALIBRATION_ILLUMINANT_1,
+        forward_matrix: FORWARD_MATRIX_1,
+        camera_calibration: CAMERA_CALIBRATION_1,
+    },
+    CalibrationTags {
+        color_matrix: COLOR_MATRIX_2,
+        illuminant: CALIBRATION_ILLUMINANT_2,
+        forward_matrix: FORWARD_MATRIX_2,
+        camera_calibration: CAMERA_CALIBRATION_2,
+    },
+];
+
+impl Dng {
+    /// Reads a file.
+    pub fn read(path: &Path) -> Result<Dng> {
+        let data = std::fs::read(path).map_err(|e| FormatError::io(path, e))?;
+        Dng::decode(&data).map_err(|e| e.in_file(path))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> Dng {
+        Dng {
+            image: RawImage::new(
+                5,
+                3,
+                CfaPattern::Bggr,
+                12,
+                [10, 11, 12, 13],
+                4095,
+                (0..15).map(|i| i * 200).collect(),
+            )
+            .unwrap(),
+            camera_model: "camsim nikon-5100".into(),
+            colour: DngColour {
+                calibrations: vec![
+                    ColourCalibration::new(
+                        Illuminant::A,
+                        [[0.9, -0.2, 0.1], [-0.3, 1.2, 0.05], [0.0, 0.1, 0.7]],
+                    ),
+                    ColourCalibration::new(
+                        Illuminant::D65,
+                        [[1.1, -0.4, 0.0], [-0.5, 1.3, 0.2], [-0.1, 0.2, 0.9]],
+                    ),
+                ],
+                as_shot_neutral: Some([0.45, 1.0, 0.7]),
+                ..DngColour::default()
+            },
+            framing: Framing::default(),
+        }
+    }
+
+    #[test]
+    fn round_trip() {
+        let d = sample();
+        let bytes = d.encode().unwrap();
+        let back = Dng::decode(&bytes).unwrap();
+        assert_eq!(back.image, d.image);
+        let c = &back.colour.calibrations[1];
+        assert_eq!(c.illuminant, Illuminant::D65);
+        assert!((c.color_matrix[1][1] - 1.3).abs() < 1e-4);
+        assert!((back.colour.as_shot_neutral.unwrap()[0] - 0.45).abs() < 1e-6);
+    }
+
+    #[test]
+    fn forward_matrix_camera_calibration_and_analog_balance_round_trip() {
+        let mut d = sample();
+        let m = [[0.5, 0.25, 0.125], [0.0, 1.0, 0.0], [0.1, 0.2, 0.7]];
+        d.colour.calibrations[0].forward_matrix = Some(m);
+        d.colour.calibrations[1].camera_calibration = Some(m);
+        d.colour.analog_balance = Some([1.0, 0.5, 1.0]);
+        let back = Dng::decode(&d.encode().unwrap()).unwrap();
+        assert_eq!(back.colour, d.colour);
+    }
+
+    #[test]
+    fn a_neutral_the_file_cannot_hold_is_refused_not_written() {
+        // Found by the damaged-DNG fuzz body: a neutral of 1e-7 was written as 0 / 1e6,
+        // which the reader then refused.
+        let mut d = sample();
+        d.colour.as_shot_neutral = Some([1e-7, 1.0, 0.7]);
+        assert!(matches!(
+            d.encode().unwrap_err(),
+            FormatError::OutOfRange {
+                field: "as-shot neutral",
+                ..
+            }
+        ));
+        d.colour.as_shot_neutral = Some([0.5, 5000.0, 0.7]);
+        assert!(d.encode().is_err());
+        d.colour.as_shot_neutral = Some([1e-6, 4294.0, 0.7]);
+        let back = Dng::decode(&d.encode().unwrap()).unwrap();
+        assert_eq!(back.colour.as_shot_neutral, Some([1e-6, 4294.0, 0.7]));
+    }
+
+    #[test]
+    fn colour_converts_to_a_calibration_and_back() {
+        let m = isp_core::colour::LINEAR_SRGB_TO_XYZ;
+        let white = colour::xy_to_xyz(colour::D65_XY).unwrap();
+        let c = ColourCalibration::from_camera_to_xyz(Illuminant::D65, &m, white).unwrap();
+        // Adobe's scale: the illuminant's white has a largest camera channel of 1.
+        let cam = colour::mat3_mul_vec(&c.color_matrix, white);
+        assert!((cam.iter().copied().fold(0.0, f64::max) - 1.0).abs() < 1e-12);
+        let colour = DngColour {
+            calibrations: vec![c],
+            as_shot_neutral: Some([0.5, 1.0, 0.8]),
+            ..DngColour::default()
+        };
+        assert_eq!(colour.as_shot_gains(), Some([2.0, 1.0, 1.25]));
+        let cal = colour.to_calibration().unwrap().unwrap();
+        // The scale does not change the colour: the CCM for neutral gains is the identity.
+        let ccm = cal.ccm(6504.0, [1.0; 3]).unwrap();
+        for (i, row) in ccm.iter().enumerate() {
+            for (j, v) in row.iter().enumerate() {
+                assert!((v - if i == j { 1.0 } else { 0.0 }).abs() < 2e-3, "{ccm:?}");
+            }
+        }
+        // One matrix without a known illuminant is used as is; two need temperatures.
+        let unknown =
+            ColourCalibration::new(Illuminant::Other(0), colour.calibrations[0].color_matrix);
+        let single = DngColour {
+            calibrations: vec![unknown],
+            ..DngColour::default()
+        };
+        assert_eq!(single.to_calibration().unwrap(), Some(cal));
+        let two = DngColour {
+            calibrations: vec![unknown, colour.calibrations[0]],
+            ..DngColour::default()
+        };
+        assert!(two.to_calibration().is_err());
+        assert_eq!(DngColour::default().to_calibration().unwrap(), None);
+    }
+
+    /// Every storage the writer has, in strips and tiles (edge tiles padded), in both byte
+    /// orders, decodes to the same frame.
+    #[test]
+    fn every_storage_layout_and_byte_order_round_trips() {
+        let mut d = sample();
+        // 37 x 21: tiles of 16 leave partial tiles on the right and at the bottom.
+        let (w, h) = (37, 21);
+        d.image = RawImage::new(
+            w,
+            h,
+            CfaPattern::Grbg,
+            14,
+            [512; 4],
+            16383,
+            (0..w * h)
+                .map(|i| ((i * 2654435761) % 16384) as u16)
+                .collect(),
+        )
+        .unwrap();
+        d.framing = Framing {
+            default_crop: Some(Crop {
+                left: 2,
+                top: 1,
+                width: 32,
+                height: 18,
+            }),
+            orientation: Orientation::Rotate270,
+        };
+        let storages = [
+            Storage::Uncompressed { bits: 16 },
+            Storage::Uncompressed { bits: 14 },
+            Storage::Uncompressed { bits: 15 },
+            Storage::LosslessJpeg {
+                components: 1,
+                predictor: 1,
+            },
+            Storage::LosslessJpeg {
+                components: 2,
+                predictor: 6,
+            },
+        ];
+        for storage in storages {
+            for tile in [None, Some((16, 16)), Some((32, 48))] {
+                for little_endian in [true, false] {
+                    let options = EncodeOptions {
+                        storage,
+                        tile,
+                        little_endian,
+                    };
+                    let two_components =
+                        matches!(storage, Storage::LosslessJpeg { components: 2, .. });
+                    if two_components && tile.is_none() {
+                        // A 37-wide strip has no whole pairs of CFA columns.
+                        assert!(d.encode_with(&options).is_err());
+                        continue;
+                    }
+                    let bytes = d.encode_with(&options).unwrap();
+                    let back = Dng::decode(&bytes).unwrap_or_else(|e| panic!("{options:?}: {e}"));
+                    assert_eq!(back, d, "{options:?}");
+                }
+            }
+        }
+        // Samples wider than the storage are refused, not truncated.
+        let narrow = EncodeOptions {
+            storage: Storage::Uncompressed { bits: 12 },
+            ..EncodeOptions::default()
+        };
+        assert!(d.encode_with(&narrow).is_err());
+    }
+
+    #[test]
+    fn linearization_table_maps_every_code() {
+        let d = sample();
+        // A table shorter than the codes: codes past its end take its last value.
+        let table: Vec<u16> = (0..2000u32).map(|v| (v * 3) as u16).collect();
+        let bytes = d
+            .encode_with_entries(
+                &EncodeOptions::default(),
+                vec![
+                    write::short(LINEARIZATION_TABLE, &table),
+                    write::short(WHITE_LEVEL, &[6000]),
+                ],
+            )
+            .unwrap();
+        let back = Dng::decode(&bytes).unwrap();
+        let expected: Vec<u16> = d
+            .image
+            .samples
+            .iter()
+            .map(|v| table[usize::from(*v).min(1999)])
+            .collect();
+        assert_eq!(back.image.samples, expected);
+        assert_eq!(back.image.white_level, 6000);
+        assert_eq!(back.image.bits, 13);
+    }
+
+    #[test]
+    fn black_level_repeats_and_deltas_are_taken_off_the_samples() {
+        let mut d = sample();
+        d.image.samples = vec![1000; 15]; // 5 x 3
+        let options = EncodeOptions::default();
+        // A 2x2 repeat of integers stays a per-position black level.
+        let bytes = d
+            .encode_with_entries(
+                &options,
+                vec![
+                    write::short(BLACK_LEVEL_REPEAT_DIM, &[2, 2]),
+                    write::short(BLACK_LEVEL, &[1, 2, 3, 4]),
+                ],
+            )
+            .unwrap();
+        let back = Dng::decode(&bytes).unwrap();
+        assert_eq!(back.image.black_level, [1, 2, 3, 4]);
+        assert_eq!(back.image.samples, d.image.samples);
+        // A 1x3 repeat, with a delta per column and per row, comes off the samples down to
+        // the smallest black, which the image keeps.
+        let delta_h = [0.0, 1.0, 2.0, 3.0, 4.0];
+        let delta_v = [0.0, 10.0, 20.0];
+        let bytes = d
+            .encode_with_entries(
+                &options,
+                vec![
+                    write::short(BLACK_LEVEL_REPEAT_DIM, &[1, 3]),
+                    write::short(BLACK_LEVEL, &[100, 110, 120]),
+                    write::srational(BLACK_LEVEL_DELTA_H, &delta_h),
+                    write::srational(BLACK_LEVEL_DELTA_V, &delta_v),
+                ],
+            )
+            .unwrap();
+        let back = Dng::decode(&bytes).unwrap();
+        assert_eq!(back.image.black_level, [100; 4]);
+        for (y, dv) in delta_v.iter().enumerate() {
+            for (x, dh) in delta_h.iter().enumerate() {
+                let black = [100.0, 110.0, 120.0][x % 3] + dh + dv;
+                let expected = (1000.0 - black + 100.0) as u16;
+                assert_eq!(back.image.samples[y * 5 + x], expected, "({x}, {y})");
+            }
+        }
+        // Deltas of the wrong length are refused.
+        let bytes = d
+            .encode_with_entries(
+                &options,
+                vec![write::srational(BLACK_LEVEL_DELTA_H, &[1.0])],
+            )
+            .unwrap();
+        assert!(Dng::decode(&bytes).is_err());
+    }
+
+    #[test]
+    fn refusals_name_the_tag_and_value() {
+        let d = sample();
+        let with = |entries| {
+            let bytes = d
+                .encode_with_entries(&EncodeOptions::default(), entries)
+                .unwrap();
+            Dng::decode(&bytes).unwrap_err().to_string()
+        };
+        assert!(
+            with(vec![write::short(COMPRESSION, &[52546])]).contains("Compression 52546 (JPEG XL)")
+        );
+        assert!(with(vec![write::short(ORIENTATION, &[9])]).contains("Orientation 9"));
+        let crop = with(vec![
+            write::long(DEFAULT_CROP_ORIGIN, &[4, 0]),
+            write::long(DEFAULT_CROP_SIZE, &[4, 3]),
+        ]);
+        assert!(crop.contains("crop"), "{crop}");
+    }
+
+    #[test]
+    fn every_truncation_is_an_error() {
+        let bytes = sample().encode().unwrap();
+        for n in 0..bytes.len() {
+            assert!(Dng::decode(&bytes[..n]).is_err(), "{n}");
+        }
+    }
+
+    #[test]
+    fn damaged_bytes_never_panic() {
+        let bytes = sample().encode().unwrap();
+        // A small xorshift: this crate has no random-number dependency.
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for _ in 0..20000 {
+            let mut b = bytes.clone();
+            for _ in 0..1 + next() % 4 {
+                let i = next() as usize % b.len();
+                b[i] = next() as u8;
+            }
+            let _ = Dng::decode(&b);
+        }
+    }
+}

@@ -1,0 +1,672 @@
+//! The DNG reader: finds the CFA image, decodes its strips or tiles, linearises it, crops it to
+//! the active area and reads its levels, colour tags and framing.
+
+use isp_core::colour::Mat3;
+use isp_core::CfaPattern;
+
+use super::tags::*;
+use super::tiff::{Ifd, Tiff};
+use super::{cfa_codes, ColourCalibration, Crop, Dng, DngColour, Framing, Illuminant};
+use super::{Orientation, CALIBRATION_TAGS};
+use crate::error::{FormatError, Result};
+use crate::lossless_jpeg;
+use crate::raw_image::RawImage;
+
+/// How a strip's or tile's bytes hold its samples.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Coding {
+    /// Compression 1: `bits` per sample, most significant bit first, rows byte-aligned;
+    /// 16-bit samples in the file's byte order.
+    Uncompressed { bits: u32, little: bool },
+    /// Compression 7: a lossless JPEG per strip or tile.
+    LosslessJpeg,
+}
+
+/// One strip or tile: where its bytes are and which pixels it covers (a tile may reach past
+/// the image's right and bottom edges; those samples are padding).
+#[derive(Debug, Clone, Copy)]
+struct Segment {
+    offset: usize,
+    len: usize,
+    x: usize,
+    y: usize,
+    width: usize,
+    height: usize,
+}
+
+impl Dng {
+    /// Parses a file's bytes.
+    pub fn decode(data: &[u8]) -> Result<Dng> {
+        let file = Tiff::new(data)?;
+        let first = file.u32_at(4)? as usize;
+        let ifd0 = file.ifd(first)?;
+        if ifd0.get(DNG_VERSION).is_none() {
+            return Err(FormatError::NotFormat {
+                format: "DNG",
+                reason: "no DNGVersion tag",
+            });
+        }
+        // The raw image: IFD 0 if it is the CFA image, else the SubIFD that is.
+        let mut raw_ifd = None;
+        if file.is_cfa_raw(&ifd0)? {
+            raw_ifd = Some(ifd0.clone());
+        } else if let Some(sub) = ifd0.get(SUB_IFDS) {
+            for offset in file.values(sub)?.into_iter().take(16) {
+                let ifd = file.ifd(offset as usize)?;
+                if file.is_cfa_raw(&ifd)? {
+                    raw_ifd = Some(ifd);
+                    break;
+                }
+            }
+        }
+        let raw_ifd = raw_ifd.ok_or(FormatError::NoCfaImage)?;
+        file.read_raw(&raw_ifd, &ifd0)
+    }
+}
+
+impl Tiff<'_> {
+    /// The first value of `tag`, if present.
+    fn first(&self, ifd: &Ifd, tag: u16) -> Result<Option<f64>> {
+        match ifd.get(tag) {
+            Some(e) => Ok(self.numbers(e)?.first().copied()),
+            None => Ok(None),
+        }
+    }
+
+    /// The strips or tiles and how their bytes are coded.
+    fn segments(&self, ifd: &Ifd, width: usize, height: usize) -> Result<Vec<Segment>> {
+        let tiled = ifd.get(TILE_WIDTH).is_some() || ifd.get(TILE_OFFSETS).is_some();
+        let (offsets, counts, cell_w, cell_h) = if tiled {
+            let tile_w = self.one(ifd, TILE_WIDTH, "TileWidth")? as usize;
+            let tile_h = self.one(ifd, TILE_LENGTH, "TileLength")? as usize;
+            if tile_w == 0 || tile_h == 0 || tile_w > 65535 || tile_h > 65535 {
+                return Err(FormatError::OutOfRange {
+                    field: "tile size",
+                    value: format!("{tile_w} x {tile_h}"),
+                    allowed: "1..=65535 on each side".into(),
+                });
+            }
+            (
+                self.values(Self::required(ifd, TILE_OFFSETS, "TileOffsets")?)?,
+                self.values(Self::required(ifd, TILE_BYTE_COUNTS, "TileByteCounts")?)?,
+                tile_w,
+                tile_h,
+            )
+        } else {
+            // RowsPerStrip defaults to the whole image (TIFF 6.0: 2^32 - 1).
+            let rows = self
+                .first(ifd, ROWS_PER_STRIP)?
+                .map_or(height, |r| (r as usize).clamp(1, height));
+            (
+                self.values(Self::required(ifd, STRIP_OFFSETS, "StripOffsets")?)?,
+                self.values(Self::required(ifd, STRIP_BYTE_COUNTS, "StripByteCounts")?)?,
+                width,
+                rows,
+            )
+        };
+        let across = width.div_ceil(cell_w);
+        let down = height.div_ceil(cell_h);
+        let needed = across * down;
+        let (offsets_name, counts_name) = if tiled {
+            ("TileOffsets entries", "TileByteCounts entries")
+        } else {
+            ("StripOffsets entries", "StripByteCounts entries")
+        };
+        if offsets.len() < needed {
+            return Err(FormatError::SizeMismatch {
+                what: offsets_name,
+                found: offsets.len(),
+                expected: needed,
+            });
+        }
+        if counts.len() < needed {
+            return Err(FormatError::SizeMismatch {
+                what: counts_name,
+                found: counts.len(),
+                expected: needed,
+            });
+        }
+        let mut segments = Vec::with_capacity(needed);
+        for i in 0..needed {
+            let (x, y) = ((i % across) * cell_w, (i / across) * cell_h);
+            // Strips end at the image's bottom; tiles keep their full size (padded).
+            let height = if tiled {
+                cell_h
+            } else {
+                cell_h.min(height - y)
+            };
+            self.bytes(offsets[i] as usize, counts[i] as usize)?;
+            segments.push(Segment {
+                offset: offsets[i] as usize,
+                len: counts[i] as usize,
+                x,
+                y,
+                width: cell_w,
+                height,
+            });
+        }
+        Ok(segments)
+    }
+
+    /// Decodes one segment's samples into `out` (resized to its width x height only once the
+    /// bytes are known to hold that many).
+    fn decode_segment(&self, segment: &Segment, coding: Coding, out: &mut Vec<u16>) -> Result<()> {
+        let bytes = self.bytes(segment.offset, segment.len)?;
+        let samples = segment.width * segment.height;
+        match coding {
+            Coding::Uncompressed { bits, little } => {
+                let row_bytes = (segment.width * bits as usize).div_ceil(8);
+                let needed = row_bytes * segment.height;
+                if bytes.len() < needed {
+                    return Err(FormatError::SizeMismatch {
+                        what: "bytes in a strip or tile",
+                        found: bytes.len(),
+                        expected: needed,
+                    });
+                }
+                out.clear();
+                out.reserve(samples);
+                for row in bytes[..needed].chunks_exact(row_bytes) {
+                    match bits {
+                        8 => out.extend(row.iter().map(|v| u16::from(*v))),
+                        16 => out.extend(row.chunks_exact(2).map(|b| {
+                            if little {
+                                u16::from_le_bytes([b[0], b[1]])
+                            } else {
+                                u16::from_be_bytes([b[0], b[1]])
+                            }
+                        })),
+                        _ => unpack_msb_first(row, bits, segment.width, out),
+                    }
+                }
+            }
+            Coding::LosslessJpeg => {
+                let frame = lossless_jpeg::frame(bytes)?;
+                // Each sample costs at least one bit, so the bytes bound the count.
+                if frame.sample_count() != samples || samples > bytes.len().saturating_mul(8) {
+                    return Err(FormatError::SizeMismatch {
+                        what: "lossless JPEG samples in a strip or tile",
+                        found: frame.sample_count(),
+                        expected: samples,
+                    });
+                }
+                out.clear();
+                out.resize(samples, 0);
+                lossless_jpeg::decode(bytes, out)?;
+            }
+        }
+        Ok(())
+    }
+
+    pub(super) fn read_raw(&self, ifd: &Ifd, ifd0: &Ifd) -> Result<Dng> {
+        let width = self.one(ifd, IMAGE_WIDTH, "ImageWidth")? as usize;
+        let height = self.one(ifd, IMAGE_LENGTH, "ImageLength")? as usize;
+        if width == 0 || height == 0 || width > 65535 || height > 65535 {
+            return Err(FormatError::OutOfRange {
+                field: "image size",
+                value: format!("{width} x {height}"),
+                allowed: "1..=65535".into(),
+            });
+        }
+        let bits = self.one(ifd, BITS_PER_SAMPLE, "BitsPerSample")?;
+        if !(8..=16).contains(&bits) {
+            return Err(FormatError::SampleBits { bits });
+        }
+        let compression = self.first(ifd, COMPRESSION)?.unwrap_or(1.0) as u32;
+        let coding = match compression {
+            1 => Coding::Uncompressed {
+                bits,
+                little: self.little,
+            },
+            7 => Coding::LosslessJpeg,
+            value => return Err(FormatError::Compression { value }),
+        };
+        let samples = self.first(ifd, SAMPLES_PER_PIXEL)?.unwrap_or(1.0);
+        if samples != 1.0 {
+            return Err(FormatError::Unsupported {
+                field: "SamplesPerPixel",
+                value: samples.to_string(),
+                supported: "a CFA image has 1",
+            });
+        }
+        let pattern = self.cfa_pattern(ifd)?;
+
+        // Each sample takes at least one bit of the file: a header cannot claim more.
+        if width * height > self.data.len().saturating_mul(8) {
+            return Err(FormatError::SizeMismatch {
+                what: "bytes for the image's samples",
+                found: self.data.len(),
+                expected: (width * height).div_ceil(8),
+            });
+        }
+        let segments = self.segments(ifd, width, height)?;
+        let mut raw = vec![0u16; width * height];
+        let mut scratch = Vec::new();
+        for segment in &segments {
+            self.decode_segment(segment, coding, &mut scratch)?;
+            let cols = segment.width.min(width - segment.x);
+            let rows = segment.height.min(height - segment.y);
+            for r in 0..rows {
+                let to = (segment.y + r) * width + segment.x;
+                raw[to..to + cols]
+                    .copy_from_slice(&scratch[r * segment.width..r * segment.width + cols]);
+            }
+        }
+
+        // LinearizationTable maps stored codes to linear values (the last entry for codes
+        // past its end, as the DNG SDK does).
+        let mut max_code = ((1u32 << bits) - 1) as f64;
+        if let Some(e) = ifd.get(LINEARIZATION_TABLE) {
+            let table: Vec<u16> = self
+                .values(e)?
+                .into_iter()
+                .map(|v| v.min(65535) as u16)
+                .collect();
+            let last = *table.last().ok_or(FormatError::Missing {
+                field: "LinearizationTable values",
+                tag: Some(LINEARIZATION_TABLE),
+            })?;
+            for v in raw.iter_mut() {
+                *v = table.get(usize::from(*v)).copied().unwrap_or(last);
+            }
+            max_code = 65535.0;
+        }
+
+        let (width, height, mut raw) = match ifd.get(ACTIVE_AREA) {
+            Some(e) => {
+                let area = self.values(e)?;
+                crop_to_active_area(raw, width, height, &area)?
+            }
+            None => (width, height, raw),
+        };
+
+        let white = self.first(ifd, WHITE_LEVEL)?.unwrap_or(max_code);
+        let level = |v: f64, field: &'static str| -> Result<u16> {
+            if v.is_finite() && (0.0..=max_code).contains(&v) {
+                Ok(v.round() as u16)
+            } else {
+                Err(FormatError::OutOfRange {
+                    field,
+                    value: v.to_string(),
+                    allowed: format!("0..={max_code}"),
+                })
+            }
+        };
+        let white_level = level(white, "WhiteLevel")?;
+        let black_level = self.black_levels(ifd, width, height, &mut raw, white_level)?;
+        // The significant bits: those the white level needs (8 at least).
+        let significant = (16 - white_level.leading_zeros()).clamp(8, 16) as u8;
+        let image = RawImage::new(
+            width,
+            height,
+            pattern,
+            significant,
+            black_level,
+            white_level,
+            raw,
+        )?;
+        let framing = self.framing(ifd, ifd0, width, height)?;
+        let colour = self.colour(ifd0)?;
+        let camera_model = self
+            .text(ifd0, UNIQUE_CAMERA_MODEL)
+            .or_else(|| self.text(ifd0, MODEL))
+            .unwrap_or_default();
+        Ok(Dng {
+            image,
+            camera_model,
+            colour,
+            framing,
+        })
+    }
+
+    fn cfa_pattern(&self, ifd: &Ifd) -> Result<CfaPattern> {
+        let dim = ifd
+            .get(CFA_REPEAT_PATTERN_DIM)
+            .map(|e| self.values(e))
+            .transpose()?
+            .unwrap_or(vec![2, 2]);
+        if dim != [2, 2] {
+            return Err(FormatError::Unsupported {
+                field: "CFARepeatPatternDim",
+                value: format!("{dim:?}"),
+                supported: "only 2x2",
+            });
+        }
+        let codes = self.values(Self::required(ifd, CFA_PATTERN, "CFAPattern")?)?;
+        [
+            CfaPattern::Rggb,
+            CfaPattern::Bggr,
+            CfaPattern::Grbg,
+            CfaPattern::Gbrg,
+        ]
+        .into_iter()
+        .find(|p| {
+            cfa_codes(*p)
+                .iter()
+                .map(|c| u32::from(*c))
+                .eq(codes.iter().copied())
+        })
+        .ok_or(FormatError::Unsupported {
+            field: "CFAPattern",
+            value: format!("{codes:?}"),
+            supported: "a Bayer pattern of R (0), G (1), B (2)",
+        })
+    }
+
+    /// The black level per 2x2 position. BlackLevel repeats over BlackLevelRepeatDim rows and
+    /// columns, and BlackLevelDeltaH/V add one value per column and row of the active area
+    /// (DNG 1.4). A pattern a 2x2 block holds (repeats of 1 or 2, integer values, no deltas)
+    /// is returned as is; any other is subtracted from the samples here, down to a uniform
+    /// black that is returned, so the ISP sees the same signal above black.
+    fn black_levels(
+        &self,
+        ifd: &Ifd,
+        width: usize,
+        height: usize,
+        raw: &mut [u16],
+        white: u16,
+    ) -> Result<[u16; 4]> {
+        let repeat = match ifd.get(BLACK_LEVEL_REPEAT_DIM) {
+            Some(e) => self.values(e)?,
+            None => vec![1, 1],
+        };
+        let (rows, cols) = match repeat[..] {
+            [r, c] if (1..=256).contains(&r) && (1..=256).contains(&c) => (r as usize, c as usize),
+            _ => {
+                return Err(FormatError::Unsupported {
+                    field: "BlackLevelRepeatDim",
+                    value: format!("{repeat:?}"),
+                    supported: "two values, rows and columns, each 1..=256",
+                })
+            }
+        };
+        let values = match ifd.get(BLACK_LEVEL) {
+            Some(e) => self.numbers(e)?,
+            None => vec![0.0; rows * cols],
+        };
+        if values.len() != rows * cols || !values.iter().all(|v| v.is_finite() && *v >= 0.0) {
+            return Err(FormatError::Unsupported {
+                field: "BlackLevel",
+                value: format!("{} values", values.len()),
+                supported: "BlackLevelRepeatDim rows x columns non-negative values",
+            });
+        }
+        let delta = |tag: u16, name: &'static str, n: usize| -> Result<Option<Vec<f64>>> {
+            let Some(e) = ifd.get(tag) else {
+                return Ok(None);
+            };
+            let v = self.numbers(e)?;
+            if v.len() != n || !v.iter().all(|d| d.is_finite()) {
+                return Err(FormatError::SizeMismatch {
+                    what: name,
+                    found: v.len(),
+                    expected: n,
+                });
+            }
+            Ok(v.iter().any(|d| *d != 0.0).then_some(v))
+        };
+        let delta_h = delta(
+            BLACK_LEVEL_DELTA_H,
+            "BlackLevelDeltaH values (one per column)",
+            width,
+        )?;
+        let delta_v = delta(
+            BLACK_LEVEL_DELTA_V,
+            "BlackLevelDeltaV values (one per row)",
+            height,
+        )?;
+        let at = |x: usize, y: usize| values[(y % rows) * cols + x % cols];
+        let simple = rows <= 2
+            && cols <= 2
+            && delta_h.is_none()
+            && delta_v.is_none()
+            && values.iter().all(|v| v.fract() == 0.0);
+        let checked = |black: f64| -> Result<u16> {
+            if black < f64::from(white) {
+                Ok(black as u16)
+            } else {
+                Err(FormatError::OutOfRange {
+                    field: "BlackLevel",
+                    value: black.to_string(),
+                    allowed: format!("below the white level {white}"),
+                })
+            }
+        };
+        if simple {
+            let mut black = [0u16; 4];
+            for (p, b) in black.iter_mut().enumerate() {
+                *b = checked(at(p % 2, p / 2))?;
+            }
+            return Ok(black);
+        }
+        let black_at = |x: usize, y: usize| {
+            at(x, y)
+                + delta_h.as_ref().map_or(0.0, |d| d[x])
+                + delta_v.as_ref().map_or(0.0, |d| d[y])
+        };
+        let mut floor = f64::INFINITY;
+        for y in 0..height {
+            for x in 0..width {
+                floor = floor.min(black_at(x, y));
+            }
+        }
+        let base = checked(floor.max(0.0).floor())?;
+        for (y, row) in raw.chunks_exact_mut(width).enumerate() {
+            for (x, v) in row.iter_mut().enumerate() {
+                let above = f64::from(*v) - black_at(x, y) + f64::from(base);
+                *v = above.round().clamp(0.0, 65535.0) as u16;
+            }
+        }
+        Ok([base; 4])
+    }
+
+    /// DefaultCrop (relative to the active area) and Orientation.
+    fn framing(&self, ifd: &Ifd, ifd0: &Ifd, width: usize, height: usize) -> Result<Framing> {
+        let pair = |tag: u16| -> Result<Option<[f64; 2]>> {
+            let Some(e) = ifd.get(tag) else {
+                return Ok(None);
+            };
+            match self.numbers(e)?[..] {
+                [a, b] if a.is_finite() && b.is_finite() && a >= 0.0 && b >= 0.0 => {
+                    Ok(Some([a, b]))
+                }
+                ref v => Err(FormatError::Unsupported {
+                    field: "DefaultCropOrigin/Size",
+                    value: format!("{v:?}"),
+                    supported: "two non-negative values",
+                }),
+            }
+        };
+        let default_crop = match (pair(DEFAULT_CROP_ORIGIN)?, pair(DEFAULT_CROP_SIZE)?) {
+            (origin, Some(size)) => {
+                let [left, top] = origin.unwrap_or([0.0, 0.0]);
+                let crop = Crop {
+                    left: left.round() as usize,
+                    top: top.round() as usize,
+                    width: size[0].round() as usize,
+                    height: size[1].round() as usize,
+                };
+                crop.check(width, height)?;
+                Some(crop)
+            }
+            _ => None,
+        };
+        // Orientation belongs to IFD 0 (the raw IFD's copy, if any, is ignored, as the DNG
+        // SDK does).
+        let orientation = match self.first(ifd0, ORIENTATION)? {
+            Some(v) => Orientation::from_tiff(v as u32)?,
+            None => Orientation::Normal,
+        };
+        Ok(Framing {
+            default_crop,
+            orientation,
+        })
+    }
+
+    /// The colour tags, which live in IFD 0.
+    fn colour(&self, ifd0: &Ifd) -> Result<DngColour> {
+        let matrix = |tag: u16, name: &'static str| -> Result<Option<Mat3>> {
+            let Some(e) = ifd0.get(tag) else {
+                return Ok(None);
+            };
+            let v = self.numbers(e)?;
+            if v.len() != 9 || !v.iter().all(|x| x.is_finite()) {
+                return Err(FormatError::Unsupported {
+                    field: name,
+                    value: format!("{} values", v.len()),
+                    supported: "9 finite values (3-channel CFA)",
+                });
+            }
+            Ok(Some(std::array::from_fn(|i| {
+                std::array::from_fn(|j| v[3 * i + j])
+            })))
+        };
+        let mut calibrations = Vec::new();
+        for (tags, name) in CALIBRATION_TAGS
+            .iter()
+            .zip(["ColorMatrix1", "ColorMatrix2"])
+        {
+            if let Some(color_matrix) = matrix(tags.color_matrix, name)? {
+                let illuminant = self.first(ifd0, tags.illuminant)?.unwrap_or(0.0);
+                calibrations.push(ColourCalibration {
+                    illuminant: Illuminant::from_code(illuminant.clamp(0.0, 65535.0) as u16),
+                    color_matrix,
+                    forward_matrix: matrix(tags.forward_matrix, "ForwardMatrix")?,
+                    camera_calibration: matrix(tags.camera_calibration, "CameraCalibration")?,
+                });
+            }
+        }
+        let triple = |tag: u16, name: &'static str| -> Result<Option<[f64; 3]>> {
+            let Some(e) = ifd0.get(tag) else {
+                return Ok(None);
+            };
+            let v = self.numbers(e)?;
+            if v.len() != 3 || !v.iter().all(|x| x.is_finite() && *x > 0.0) {
+                return Err(FormatError::Unsupported {
+                    field: name,
+                    value: format!("{v:?}"),
+                    supported: "3 positive values",
+                });
+            }
+            Ok(Some([v[0], v[1], v[2]]))
+        };
+        Ok(DngColour {
+            calibrations,
+            analog_balance: triple(ANALOG_BALANCE, "AnalogBalance")?,
+            as_shot_neutral: triple(AS_SHOT_NEUTRAL, "AsShotNeutral")?,
+        })
+    }
+}
+
+/// Appends `width` samples of `bits` bits (9..=15), packed most significant bit first, from one
+/// row's bytes (which hold at least `width * bits` bits).
+pub(super) fn unpack_msb_first(row: &[u8], bits: u32, width: usize, out: &mut Vec<u16>) {
+    let mask = (1u32 << bits) - 1;
+    let (mut acc, mut held) = (0u32, 0u32);
+    let mut bytes = row.iter();
+    for _ in 0..width {
+        while held < bits {
+            // The caller sized the row for `width` samples; a missing byte reads as zero.
+            acc = (acc << 8) | u32::from(bytes.next().copied().unwrap_or(0));
+            held += 8;
+        }
+        held -= bits;
+        out.push(((acc >> held) & mask) as u16);
+        acc &= (1 << held) - 1;
+    }
+}
+
+/// The samples inside ActiveArea (`[top, left, bottom, right]`): the masked borders around it
+/// never reach the image. The CFA pattern and black levels are relative to its top-left corner.
+fn crop_to_active_area(
+    raw: Vec<u16>,
+    width: usize,
+    height: usize,
+    area: &[u32],
+) -> Result<(usize, usize, Vec<u16>)> {
+    let [top, left, bottom, right] = match area {
+        [t, l, b, r] => [*t, *l, *b, *r].map(|v| v as usize),
+        _ => {
+            return Err(FormatError::Unsupported {
+                field: "ActiveArea value count",
+                value: area.len().to_string(),
+                supported: "4: top, left, bottom, right",
+            })
+        }
+    };
+    if !(top < bottom && bottom <= height && left < right && right <= width) {
+        return Err(FormatError::OutOfRange {
+            field: "ActiveArea",
+            value: format!("{area:?}"),
+            allowed: format!("top < bottom <= {height}, left < right <= {width}"),
+        });
+    }
+    if (top, left, bottom, right) == (0, 0, height, width) {
+        return Ok((width, height, raw));
+    }
+    let (w, h) = (right - left, bottom - top);
+    let mut out = Vec::with_capacity(w * h);
+    for row in raw.chunks_exact(width).skip(top).take(h) {
+        out.extend_from_slice(&row[left..right]);
+    }
+    Ok((w, h, out))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Packs `values` of `bits` bits most significant bit first, as DNG writers do.
+    fn pack(values: &[u16], bits: u32) -> Vec<u8> {
+        let mut out = Vec::new();
+        let (mut acc, mut held) = (0u64, 0u32);
+        for v in values {
+            acc = (acc << bits) | u64::from(*v);
+            held += bits;
+            while held >= 8 {
+                held -= 8;
+                out.push((acc >> held) as u8);
+            }
+        }
+        if held > 0 {
+            out.push((acc << (8 - held)) as u8);
+        }
+        out
+    }
+
+    #[test]
+    fn packed_samples_unpack_most_significant_bit_first() {
+        let mut out = Vec::new();
+        unpack_msb_first(&[0xab, 0xc1, 0x23], 12, 2, &mut out);
+        assert_eq!(out, [0xabc, 0x123]);
+        for bits in 9..=15u32 {
+            let max = (1u32 << bits) - 1;
+            let values: Vec<u16> = (0..37u32)
+                .map(|i| (i.wrapping_mul(2654435761) % (max + 1)) as u16)
+                .collect();
+            let mut out = Vec::new();
+            unpack_msb_first(&pack(&values, bits), bits, values.len(), &mut out);
+            assert_eq!(out, values, "{bits} bits");
+        }
+    }
+
+    #[test]
+    fn active_area_crops_the_masked_borders() {
+        let raw: Vec<u16> = (0..20).collect(); // 5 x 4
+        let (w, h, inner) = crop_to_active_area(raw.clone(), 5, 4, &[1, 2, 3, 5]).unwrap();
+        assert_eq!((w, h, inner), (3, 2, vec![7, 8, 9, 12, 13, 14]));
+        assert_eq!(
+            crop_to_active_area(raw.clone(), 5, 4, &[0, 0, 4, 5])
+                .unwrap()
+                .2,
+            raw
+        );
+        for bad in [[2, 0, 2, 5], [0, 0, 5, 5], [0, 3, 4, 3]] {
+            assert!(
+                crop_to_active_area(raw.clone(), 5, 4, &bad).is_err(),
+                "{bad:?}"
+            );
+        }
+        assert!(crop_to_active_area(raw, 5, 4, &[0, 0, 4]).is_err());
+    }
+}

@@ -1,0 +1,513 @@
+//! The DNG writer: one IFD holding the CFA image, in either byte order, uncompressed (8 to 16
+//! bits, packed most significant bit first) or lossless-JPEG compressed, in strips or tiles.
+
+use std::path::Path;
+
+use isp_core::colour::Mat3;
+
+use super::tags::*;
+use super::{cfa_codes, Dng, CALIBRATION_TAGS};
+use crate::error::{FormatError, Result};
+use crate::lossless_jpeg::{self, Frame};
+
+/// How the writer stores the samples.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Storage {
+    /// Compression 1 at `bits` per sample (8..=16; below 16 packed most significant bit
+    /// first, each row starting on a byte boundary). The image's samples must fit.
+    Uncompressed {
+        /// Bits per sample.
+        bits: u8,
+    },
+    /// Compression 7: each strip or tile a lossless JPEG, its precision the image's bit
+    /// depth. With 2 components a tile of width W is coded W/2 wide with its two CFA
+    /// columns interleaved (as Adobe's converter writes; W must be even), with 1 as a plain
+    /// greyscale frame.
+    LosslessJpeg {
+        /// 1 or 2.
+        components: u8,
+        /// Predictor 1..=7.
+        predictor: u8,
+    },
+}
+
+/// How [`Dng::encode_with`] lays the file out.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct EncodeOptions {
+    /// Sample storage.
+    pub storage: Storage,
+    /// Tile width and height (each a multiple of 16, as DNG requires), or `None` for one strip.
+    pub tile: Option<(u32, u32)>,
+    /// Byte order: `II` (true) or `MM`.
+    pub little_endian: bool,
+}
+
+impl Default for EncodeOptions {
+    /// 16-bit uncompressed samples in one little-endian strip.
+    fn default() -> Self {
+        Self {
+            storage: Storage::Uncompressed { bits: 16 },
+            tile: None,
+            little_endian: true,
+        }
+    }
+}
+
+/// An entry's values, typed so either byte order can be written.
+pub(super) enum Values {
+    Bytes(Vec<u8>),
+    Ascii(Vec<u8>),
+    Short(Vec<u16>),
+    Long(Vec<u32>),
+    Rational(Vec<(u32, u32)>),
+    SRational(Vec<(i32, i32)>),
+}
+
+pub(super) struct Entry {
+    pub(super) tag: u16,
+    pub(super) values: Values,
+}
+
+impl Entry {
+    fn kind_and_count(&self) -> (u16, usize) {
+        match &self.values {
+            Values::Bytes(v) => (BYTE, v.len()),
+            Values::Ascii(v) => (ASCII, v.len()),
+            Values::Short(v) => (SHORT, v.len()),
+            Values::Long(v) => (LONG, v.len()),
+            Values::Rational(v) => (RATIONAL, v.len()),
+            Values::SRational(v) => (SRATIONAL, v.len()),
+        }
+    }
+
+    fn bytes(&self, little: bool) -> Vec<u8> {
+        let u16b = |v: u16| {
+            if little {
+                v.to_le_bytes()
+            } else {
+                v.to_be_bytes()
+            }
+        };
+        let u32b = |v: u32| {
+            if little {
+                v.to_le_bytes()
+            } else {
+                v.to_be_bytes()
+            }
+        };
+        match &self.values {
+            Values::Bytes(v) | Values::Ascii(v) => v.clone(),
+            Values::Short(v) => v.iter().flat_map(|x| u16b(*x)).collect(),
+            Values::Long(v) => v.iter().flat_map(|x| u32b(*x)).collect(),
+            Values::Rational(v) => v
+                .iter()
+                .flat_map(|(n, d)| [u32b(*n), u32b(*d)].concat())
+                .collect(),
+            Values::SRational(v) => v
+                .iter()
+                .flat_map(|(n, d)| [u32b(*n as u32), u32b(*d as u32)].concat())
+                .collect(),
+        }
+    }
+}
+
+pub(super) fn short(tag: u16, values: &[u16]) -> Entry {
+    Entry {
+        tag,
+        values: Values::Short(values.to_vec()),
+    }
+}
+
+pub(super) fn long(tag: u16, values: &[u32]) -> Entry {
+    Entry {
+        tag,
+        values: Values::Long(values.to_vec()),
+    }
+}
+
+pub(super) fn bytes(tag: u16, values: &[u8]) -> Entry {
+    Entry {
+        tag,
+        values: Values::Bytes(values.to_vec()),
+    }
+}
+
+fn ascii(tag: u16, text: &str) -> Entry {
+    let mut b: Vec<u8> = text.bytes().filter(|c| *c != 0).collect();
+    b.push(0);
+    Entry {
+        tag,
+        values: Values::Ascii(b),
+    }
+}
+
+/// Rationals with denominator 10000 (four decimals, as Adobe's DNG files carry).
+pub(super) fn srational(tag: u16, values: &[f64]) -> Entry {
+    Entry {
+        tag,
+        values: Values::SRational(
+            values
+                .iter()
+                .map(|v| {
+                    let n = (v * 10000.0)
+                        .round()
+                        .clamp(i32::MIN as f64, i32::MAX as f64) as i32;
+                    (n, 10000)
+                })
+                .collect(),
+        ),
+    }
+}
+
+pub(super) fn rational(tag: u16, values: &[f64]) -> Entry {
+    Entry {
+        tag,
+        values: Values::Rational(
+            values
+                .iter()
+                .map(|v| {
+                    (
+                        (v * 1e6).round().clamp(0.0, u32::MAX as f64) as u32,
+                        1_000_000,
+                    )
+                })
+                .collect(),
+        ),
+    }
+}
+
+/// Packs one row of samples at `bits` bits, most significant bit first, into whole bytes.
+fn pack_row(row: &[u16], bits: u32, out: &mut Vec<u8>) {
+    let (mut acc, mut held) = (0u64, 0u32);
+    for v in row {
+        acc = (acc << bits) | u64::from(*v);
+        held += bits;
+        while held >= 8 {
+            held -= 8;
+            out.push((acc >> held) as u8);
+        }
+    }
+    if held > 0 {
+        out.push((acc << (8 - held)) as u8);
+    }
+}
+
+impl Dng {
+    /// Checks sizes, levels and colour tags before writing.
+    fn check(&self) -> Result<()> {
+        let image = &self.image;
+        image.check()?;
+        if image.width > 65535 || image.height > 65535 {
+            return Err(FormatError::OutOfRange {
+                field: "DNG size",
+                value: format!("{} x {}", image.width, image.height),
+                allowed: "1..=65535 on each side".into(),
+            });
+        }
+        if self.colour.calibrations.len() > 2 {
+            return Err(FormatError::OutOfRange {
+                field: "colour matrix count",
+                value: self.colour.calibrations.len().to_string(),
+                allowed: "0..=2 (ColorMatrix1/2)".into(),
+            });
+        }
+        if let Some(crop) = self.framing.default_crop {
+            crop.check(image.width, image.height)?;
+        }
+        Ok(())
+    }
+
+    /// The file's bytes: 16-bit uncompressed samples in one little-endian strip.
+    pub fn encode(&self) -> Result<Vec<u8>> {
+        self.encode_with(&EncodeOptions::default())
+    }
+
+    /// The samples of each strip or tile, coded as `options` says.
+    fn segments(&self, options: &EncodeOptions) -> Result<Vec<Vec<u8>>> {
+        let image = &self.image;
+        let (cell_w, cell_h) = match options.tile {
+            Some((w, h)) => {
+                if w == 0 || h == 0 || w % 16 != 0 || h % 16 != 0 || w > 65535 || h > 65535 {
+                    return Err(FormatError::OutOfRange {
+                        field: "tile size",
+                        value: format!("{w} x {h}"),
+                        allowed: "multiples of 16, up to 65535".into(),
+                    });
+                }
+                (w as usize, h as usize)
+            }
+            None => (image.width, image.height),
+        };
+        let across = image.width.div_ceil(cell_w);
+        let down = image.height.div_ceil(cell_h);
+        let mut cells = Vec::with_capacity(across * down);
+        for ty in 0..down {
+            for tx in 0..across {
+                // A tile past the image's edge repeats its last column and row (padding a
+                // reader ignores; repeating keeps the prediction cheap to code).
+                let mut cell = Vec::with_capacity(cell_w * cell_h);
+                for y in ty * cell_h..(ty + 1) * cell_h {
+                    let y = y.min(image.height - 1);
+                    for x in tx * cell_w..(tx + 1) * cell_w {
+                        cell.push(image.samples[y * image.width + x.min(image.width - 1)]);
+                    }
+                }
+                cells.push(cell);
+            }
+        }
+        cells
+            .iter()
+            .map(|cell| match options.storage {
+                Storage::Uncompressed { bits } => {
+                    let max = (1u32 << bits.clamp(1, 16)) - 1;
+                    if !(8..=16).contains(&bits) || cell.iter().any(|v| u32::from(*v) > max) {
+                        return Err(FormatError::OutOfRange {
+                            field: "uncompressed bits per sample",
+                            value: bits.to_string(),
+                            allowed: "8..=16, enough for every sample".into(),
+                        });
+                    }
+                    let mut out = Vec::new();
+                    for row in cell.chunks_exact(cell_w) {
+                        match bits {
+                            8 => out.extend(row.iter().map(|v| *v as u8)),
+                            16 => out.extend(row.iter().flat_map(|v| {
+                                if options.little_endian {
+                                    v.to_le_bytes()
+                                } else {
+                                    v.to_be_bytes()
+                                }
+                            })),
+                            _ => pack_row(row, u32::from(bits), &mut out),
+                        }
+                    }
+                    Ok(out)
+                }
+                Storage::LosslessJpeg {
+                    components,
+                    predictor,
+                } => {
+                    let n = usize::from(components);
+                    if !(1..=2).contains(&n) || cell_w % n != 0 || cell_w / n > 65535 {
+                        return Err(FormatError::OutOfRange {
+                            field: "lossless JPEG components",
+                            value: components.to_string(),
+                            allowed: "1, or 2 with an even strip or tile width".into(),
+                        });
+                    }
+                    let frame = Frame {
+                        precision: image.bits,
+                        lines: cell_h as u16,
+                        samples_per_line: (cell_w / n) as u16,
+                        components,
+                    };
+                    lossless_jpeg::encode(cell, frame, predictor, 0, 0)
+                }
+            })
+            .collect()
+    }
+
+    /// The file's bytes, laid out as `options` says.
+    pub fn encode_with(&self, options: &EncodeOptions) -> Result<Vec<u8>> {
+        self.encode_with_entries(options, Vec::new())
+    }
+
+    /// As [`Dng::encode_with`], with `extra` entries in the IFD (for tests of tags the writer
+    /// does not otherwise write).
+    pub(super) fn encode_with_entries(
+        &self,
+        options: &EncodeOptions,
+        extra: Vec<Entry>,
+    ) -> Result<Vec<u8>> {
+        self.check()?;
+        let image = &self.image;
+        let (w, h) = (image.width as u32, image.height as u32);
+        let segments = self.segments(options)?;
+        let (bits, compression) = match options.storage {
+            Storage::Uncompressed { bits } => (u16::from(bits), 1),
+            Storage::LosslessJpeg { .. } => (u16::from(image.bits), 7),
+        };
+        let model = if self.camera_model.is_empty() {
+            "camsim"
+        } else {
+            &self.camera_model
+        };
+        let counts: Vec<u32> = segments.iter().map(|s| s.len() as u32).collect();
+        let zeros = vec![0u32; segments.len()]; // offsets, patched below
+        let mut entries = vec![
+            long(NEW_SUBFILE_TYPE, &[0]),
+            long(IMAGE_WIDTH, &[w]),
+            long(IMAGE_LENGTH, &[h]),
+            short(BITS_PER_SAMPLE, &[bits]),
+            short(COMPRESSION, &[compression]),
+            short(PHOTOMETRIC, &[CFA_PHOTOMETRIC as u16]),
+            ascii(MAKE, "camsim"),
+            ascii(MODEL, model),
+            short(ORIENTATION, &[self.framing.orientation.to_tiff()]),
+            short(SAMPLES_PER_PIXEL, &[1]),
+            short(PLANAR_CONFIGURATION, &[1]),
+            ascii(SOFTWARE, concat!("camsim ", env!("CARGO_PKG_VERSION"))),
+            short(CFA_REPEAT_PATTERN_DIM, &[2, 2]),
+            bytes(CFA_PATTERN, &cfa_codes(image.pattern)),
+            bytes(DNG_VERSION, &[1, 4, 0, 0]),
+            bytes(DNG_BACKWARD_VERSION, &[1, 1, 0, 0]),
+            ascii(UNIQUE_CAMERA_MODEL, model),
+        ];
+        match options.tile {
+            Some((tw, th)) => entries.extend([
+                long(TILE_WIDTH, &[tw]),
+                long(TILE_LENGTH, &[th]),
+                long(TILE_OFFSETS, &zeros),
+                long(TILE_BYTE_COUNTS, &counts),
+            ]),
+            None => entries.extend([
+                long(STRIP_OFFSETS, &zeros),
+                long(ROWS_PER_STRIP, &[h]),
+                long(STRIP_BYTE_COUNTS, &counts),
+            ]),
+        }
+        let black = image.black_level;
+        if black.iter().all(|b| *b == black[0]) {
+            entries.push(short(BLACK_LEVEL, &[black[0]]));
+        } else {
+            entries.push(short(BLACK_LEVEL_REPEAT_DIM, &[2, 2]));
+            entries.push(short(BLACK_LEVEL, &black));
+        }
+        entries.push(short(WHITE_LEVEL, &[image.white_level]));
+        if let Some(crop) = self.framing.default_crop {
+            entries.push(long(
+                DEFAULT_CROP_ORIGIN,
+                &[crop.left as u32, crop.top as u32],
+            ));
+            entries.push(long(
+                DEFAULT_CROP_SIZE,
+                &[crop.width as u32, crop.height as u32],
+            ));
+        }
+        let matrix = |tag: u16, m: &Mat3| -> Result<Entry> {
+            let flat: Vec<f64> = m.iter().flatten().copied().collect();
+            if !flat.iter().all(|v| v.is_finite()) {
+                return Err(FormatError::OutOfRange {
+                    field: "colour matrix",
+                    value: format!("{m:?}"),
+                    allowed: "finite values".into(),
+                });
+            }
+            Ok(srational(tag, &flat))
+        };
+        for (c, tags) in self.colour.calibrations.iter().zip(CALIBRATION_TAGS) {
+            entries.push(matrix(tags.color_matrix, &c.color_matrix)?);
+            entries.push(short(tags.illuminant, &[c.illuminant.code()]));
+            if let Some(m) = &c.forward_matrix {
+                entries.push(matrix(tags.forward_matrix, m)?);
+            }
+            if let Some(m) = &c.camera_calibration {
+                entries.push(matrix(tags.camera_calibration, m)?);
+            }
+        }
+        // Written as n / 1e6: a value that rounds to 0 or past u32 would not read back.
+        let millionths = |field: &'static str, n: [f64; 3]| -> Result<()> {
+            if n.iter().all(|v| (1e-6..=4294.0).contains(v)) {
+                Ok(())
+            } else {
+                Err(FormatError::OutOfRange {
+                    field,
+                    value: format!("{n:?}"),
+                    allowed: "[1e-6, 4294] (written in millionths)".into(),
+                })
+            }
+        };
+        if let Some(n) = self.colour.analog_balance {
+            millionths("analog balance", n)?;
+            entries.push(rational(ANALOG_BALANCE, &n));
+        }
+        if let Some(n) = self.colour.as_shot_neutral {
+            millionths("as-shot neutral", n)?;
+            entries.push(rational(AS_SHOT_NEUTRAL, &n));
+        }
+        entries.retain(|e| extra.iter().all(|x| x.tag != e.tag));
+        entries.extend(extra);
+        entries.sort_by_key(|e| e.tag);
+        Ok(layout(entries, &segments, options.little_endian))
+    }
+
+    /// Writes the file.
+    pub fn write(&self, path: &Path) -> Result<()> {
+        let bytes = self.encode().map_err(|e| e.in_file(path))?;
+        std::fs::write(path, bytes).map_err(|e| FormatError::io(path, e))
+    }
+}
+
+/// Header, IFD, out-of-line values, then the segments (each starting on an even offset),
+/// with the StripOffsets or TileOffsets entry pointing at them.
+fn layout(mut entries: Vec<Entry>, segments: &[Vec<u8>], little: bool) -> Vec<u8> {
+    let ifd_len = 2 + 12 * entries.len() + 4;
+    let extra_len: usize = entries
+        .iter()
+        .map(|e| e.bytes(little).len())
+        .filter(|n| *n > 4)
+        .map(|n| n.next_multiple_of(2))
+        .sum();
+    let mut at = 8 + ifd_len + extra_len;
+    let offsets: Vec<u32> = segments
+        .iter()
+        .map(|s| {
+            let o = at as u32;
+            at += s.len().next_multiple_of(2);
+            o
+        })
+        .collect();
+    for e in entries.iter_mut() {
+        if e.tag == STRIP_OFFSETS || e.tag == TILE_OFFSETS {
+            e.values = Values::Long(offsets.clone());
+        }
+    }
+    let u16b = |v: u16| {
+        if little {
+            v.to_le_bytes()
+        } else {
+            v.to_be_bytes()
+        }
+    };
+    let u32b = |v: u32| {
+        if little {
+            v.to_le_bytes()
+        } else {
+            v.to_be_bytes()
+        }
+    };
+    let mut out = Vec::with_capacity(at);
+    out.extend_from_slice(if little { b"II*\0" } else { b"MM\0*" });
+    out.extend_from_slice(&u32b(8));
+    out.extend_from_slice(&u16b(entries.len() as u16));
+    let mut extra_offset = 8 + ifd_len;
+    let mut extra = Vec::with_capacity(extra_len);
+    for e in &entries {
+        let (kind, count) = e.kind_and_count();
+        let b = e.bytes(little);
+        out.extend_from_slice(&u16b(e.tag));
+        out.extend_from_slice(&u16b(kind));
+        out.extend_from_slice(&u32b(count as u32));
+        if b.len() <= 4 {
+            let mut inline = [0u8; 4];
+            inline[..b.len()].copy_from_slice(&b);
+            out.extend_from_slice(&inline);
+        } else {
+            out.extend_from_slice(&u32b(extra_offset as u32));
+            extra.extend_from_slice(&b);
+            if b.len() % 2 == 1 {
+                extra.push(0);
+            }
+            extra_offset += b.len().next_multiple_of(2);
+        }
+    }
+    out.extend_from_slice(&0u32.to_le_bytes()); // no next IFD
+    out.extend_from_slice(&extra);
+    for s in segments {
+        out.extend_from_slice(s);
+        if s.len() % 2 == 1 {
+            out.push(0);
+        }
+    }
+    out
+}
