@@ -395,3 +395,77 @@ fn isp_develops_a_real_packed_dng() {
     assert!(column_mean(0) > 5.0 && column_mean(rgb.width - 1) > 5.0);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn isp_develops_a_lossless_jpeg_cinema_dng_at_its_default_crop_or_the_active_area() {
+    let input = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../data/real-dng/blackmagic-pocket-gbrg-lj92.dng");
+    let dir = std::env::temp_dir().join(format!("camsim-isp-lj92-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for (crop, size, says_crop) in [
+        (None, (1920, 1080), true),
+        (Some("active"), (1952, 1112), false),
+    ] {
+        let output = dir.join("bmpcc.png");
+        let mut args = vec![
+            "isp",
+            "--input",
+            input.to_str().unwrap(),
+            "--output",
+            output.to_str().unwrap(),
+        ];
+        if let Some(c) = crop {
+            args.extend(["--crop", c]);
+        }
+        let (ok, stdout, stderr) = camsim(&args);
+        assert!(ok, "{stderr}");
+        assert_eq!(
+            stdout.contains("default crop, 1920x1080 at (16, 16)"),
+            says_crop,
+            "{stdout}"
+        );
+        let rgb = imageio::read(&output).unwrap();
+        assert_eq!((rgb.width, rgb.height), size);
+    }
+    let (ok, _, stderr) = camsim(&[
+        "isp",
+        "--input",
+        input.to_str().unwrap(),
+        "--output",
+        dir.join("x.png").to_str().unwrap(),
+        "--crop",
+        "all",
+    ]);
+    assert!(!ok && stderr.contains("--crop"), "{stderr}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn bench_dng_reports_its_decode_time_as_json() {
+    let input = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../data/real-dng/blackmagic-pocket-gbrg-lj92.dng");
+    let (ok, stdout, stderr) = camsim(&[
+        "bench",
+        "dng",
+        "--input",
+        input.to_str().unwrap(),
+        "--repeats",
+        "2",
+        "--json",
+    ]);
+    assert!(ok, "{stderr}");
+    let figures: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(figures["width"], 1952);
+    assert_eq!(figures["height"], 1112);
+    assert!(figures["ms"].as_f64().unwrap() > 0.0);
+    assert!(figures["mpix_per_s"].as_f64().unwrap() > 0.0);
+    let (ok, _, stderr) = camsim(&[
+        "bench",
+        "dng",
+        "--input",
+        input.to_str().unwrap(),
+        "--repeats",
+        "0",
+    ]);
+    assert!(!ok && stderr.contains("--repeats"), "{stderr}");
+}

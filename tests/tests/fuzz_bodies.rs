@@ -217,3 +217,86 @@ fn dng_seed_decodes() {
     dng_decode(&valid_dng());
     assert!(raw_formats::dng::Dng::decode(&valid_dng()).is_ok());
 }
+
+/// The committed seed corpus (`fuzz/seeds/TARGET/`) is exactly what
+/// `raw_formats::fuzzing::seed_corpus` makes, so it follows the writer; set
+/// `CAMSIM_WRITE_FUZZ_SEEDS=1` to rewrite it after changing either.
+#[test]
+fn seed_corpus_is_committed_and_current() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz/seeds");
+    let write = std::env::var_os("CAMSIM_WRITE_FUZZ_SEEDS").is_some();
+    let seeds = raw_formats::fuzzing::seed_corpus();
+    assert!(seeds.len() >= 40, "{} seeds", seeds.len());
+    for (target, name, bytes) in &seeds {
+        let path = root.join(target).join(name);
+        if write {
+            std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+            std::fs::write(&path, bytes).unwrap();
+        }
+        let committed = std::fs::read(&path).unwrap_or_else(|e| {
+            panic!(
+                "{}: {e} (CAMSIM_WRITE_FUZZ_SEEDS=1 makes it)",
+                path.display()
+            )
+        });
+        assert!(
+            &committed == bytes,
+            "{} differs from seed_corpus()",
+            path.display()
+        );
+    }
+}
+
+/// Every committed corpus file (seeds, and what fuzz runs found and were added) replays
+/// through its target's body; the DNG seeds all decode, so the fuzzer starts past the header
+/// checks, and so do the lossless JPEG seeds.
+#[test]
+fn committed_corpus_replays_through_the_decoders() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz/seeds");
+    let mut decoded = 0;
+    for (target, body) in [
+        ("dng_decode", dng_decode as fn(&[u8])),
+        ("lossless_jpeg", lossless_jpeg_decode),
+    ] {
+        for entry in std::fs::read_dir(root.join(target)).expect("fuzz/seeds/TARGET exists") {
+            let data = std::fs::read(entry.unwrap().path()).unwrap();
+            body(&data);
+            let ok = match target {
+                "dng_decode" => raw_formats::dng::Dng::decode(&data).is_ok(),
+                _ => raw_formats::lossless_jpeg::frame(&data).is_ok_and(|f| {
+                    raw_formats::lossless_jpeg::decode(&data, &mut vec![0; f.sample_count()])
+                        .is_ok()
+                }),
+            };
+            decoded += usize::from(ok);
+        }
+    }
+    let seeds = raw_formats::fuzzing::seed_corpus().len();
+    assert!(decoded >= seeds, "{decoded} of the {seeds} seeds decode");
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(3000))]
+
+    /// Random bytes, and seeds with a few bytes changed, never break the decoders' contracts.
+    #[test]
+    fn damaged_seeds_never_break_the_decoders(
+        pick in any::<prop::sample::Index>(),
+        changes in proptest::collection::vec((any::<prop::sample::Index>(), any::<u8>()), 1..6),
+        noise in proptest::collection::vec(any::<u8>(), 0..64),
+    ) {
+        let seeds = raw_formats::fuzzing::seed_corpus();
+        let (target, _, bytes) = &seeds[pick.index(seeds.len())];
+        let mut data = bytes.clone();
+        for (at, value) in &changes {
+            let i = at.index(data.len());
+            data[i] = *value;
+        }
+        match *target {
+            "dng_decode" => dng_decode(&data),
+            _ => lossless_jpeg_decode(&data),
+        }
+        lossless_jpeg_decode(&noise);
+        dng_decode(&noise);
+    }
+}

@@ -59,7 +59,7 @@ use crate::raw_image::RawImage;
 
 mod read;
 mod tiff;
-mod write;
+pub(crate) mod write;
 
 use tags::*;
 pub use write::{EncodeOptions, Storage};
@@ -255,7 +255,7 @@ pub struct Framing {
 }
 
 /// Tag numbers and field types (TIFF 6.0 and DNG 1.4).
-mod tags {
+pub(crate) mod tags {
     pub(crate) const NEW_SUBFILE_TYPE: u16 = 254;
     pub(crate) const IMAGE_WIDTH: u16 = 256;
     pub(crate) const IMAGE_LENGTH: u16 = 257;

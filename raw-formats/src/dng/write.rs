@@ -54,7 +54,7 @@ impl Default for EncodeOptions {
 }
 
 /// An entry's values, typed so either byte order can be written.
-pub(super) enum Values {
+pub(crate) enum Values {
     Bytes(Vec<u8>),
     Ascii(Vec<u8>),
     Short(Vec<u16>),
@@ -63,9 +63,9 @@ pub(super) enum Values {
     SRational(Vec<(i32, i32)>),
 }
 
-pub(super) struct Entry {
-    pub(super) tag: u16,
-    pub(super) values: Values,
+pub(crate) struct Entry {
+    pub(crate) tag: u16,
+    pub(crate) values: Values,
 }
 
 impl Entry {
@@ -111,21 +111,21 @@ impl Entry {
     }
 }
 
-pub(super) fn short(tag: u16, values: &[u16]) -> Entry {
+pub(crate) fn short(tag: u16, values: &[u16]) -> Entry {
     Entry {
         tag,
         values: Values::Short(values.to_vec()),
     }
 }
 
-pub(super) fn long(tag: u16, values: &[u32]) -> Entry {
+pub(crate) fn long(tag: u16, values: &[u32]) -> Entry {
     Entry {
         tag,
         values: Values::Long(values.to_vec()),
     }
 }
 
-pub(super) fn bytes(tag: u16, values: &[u8]) -> Entry {
+pub(crate) fn bytes(tag: u16, values: &[u8]) -> Entry {
     Entry {
         tag,
         values: Values::Bytes(values.to_vec()),
@@ -142,7 +142,7 @@ fn ascii(tag: u16, text: &str) -> Entry {
 }
 
 /// Rationals with denominator 10000 (four decimals, as Adobe's DNG files carry).
-pub(super) fn srational(tag: u16, values: &[f64]) -> Entry {
+pub(crate) fn srational(tag: u16, values: &[f64]) -> Entry {
     Entry {
         tag,
         values: Values::SRational(
@@ -159,7 +159,7 @@ pub(super) fn srational(tag: u16, values: &[f64]) -> Entry {
     }
 }
 
-pub(super) fn rational(tag: u16, values: &[f64]) -> Entry {
+pub(crate) fn rational(tag: u16, values: &[f64]) -> Entry {
     Entry {
         tag,
         values: Values::Rational(
@@ -314,7 +314,7 @@ impl Dng {
 
     /// As [`Dng::encode_with`], with `extra` entries in the IFD (for tests of tags the writer
     /// does not otherwise write).
-    pub(super) fn encode_with_entries(
+    pub(crate) fn encode_with_entries(
         &self,
         options: &EncodeOptions,
         extra: Vec<Entry>,

@@ -18,6 +18,34 @@ pub enum BenchCommand {
     /// What each optical feature (thin lens, aperture shape, chromatic aberration, motion,
     /// spectral rendering, distortion) costs the path tracer, against the pinhole.
     Render(BenchRenderArgs),
+    /// How long reading a DNG takes: parsing, decoding (unpacking or lossless JPEG),
+    /// linearising and cropping, from bytes in memory; `scripts/bench-dng-decode.py` runs it
+    /// beside LibRaw's unpack of the same file.
+    Dng(BenchDngArgs),
+}
+
+#[derive(Args)]
+pub struct BenchDngArgs {
+    /// The DNG to decode.
+    #[arg(long)]
+    input: PathBuf,
+    /// Decodes; the fastest is reported.
+    #[arg(long, default_value_t = 10)]
+    repeats: u32,
+    /// Print one JSON object {file, width, height, ms, mpix_per_s, repeats}.
+    #[arg(long)]
+    json: bool,
+}
+
+/// What `camsim bench dng` measured.
+#[derive(serde::Serialize)]
+struct DngDecodeFigures {
+    file: String,
+    width: usize,
+    height: usize,
+    ms: f64,
+    mpix_per_s: f64,
+    repeats: u32,
 }
 
 #[derive(Args)]
@@ -76,7 +104,48 @@ pub fn run(command: &BenchCommand) -> Result<String, Error> {
     match command {
         BenchCommand::Demosaic(args) => bench_demosaic(args),
         BenchCommand::Render(args) => bench_render(args),
+        BenchCommand::Dng(args) => bench_dng(args),
     }
+}
+
+fn bench_dng(args: &BenchDngArgs) -> Result<String, Error> {
+    if args.repeats == 0 {
+        return Err(Error::Option {
+            option: "--repeats",
+            value: "0".into(),
+            allowed: "at least 1".into(),
+        });
+    }
+    let bytes =
+        std::fs::read(&args.input).map_err(|e| raw_formats::FormatError::io(&args.input, e))?;
+    let mut best = f64::INFINITY;
+    let mut size = (0, 0);
+    for _ in 0..args.repeats {
+        let start = std::time::Instant::now();
+        let dng = raw_formats::dng::Dng::decode(&bytes).map_err(|e| e.in_file(&args.input))?;
+        best = best.min(start.elapsed().as_secs_f64() * 1e3);
+        size = (dng.image.width, dng.image.height);
+    }
+    let figures = DngDecodeFigures {
+        file: args.input.display().to_string(),
+        width: size.0,
+        height: size.1,
+        ms: best,
+        mpix_per_s: (size.0 * size.1) as f64 / (best * 1e3),
+        repeats: args.repeats,
+    };
+    if args.json {
+        return json(&figures);
+    }
+    Ok(format!(
+        "{}: {} x {} decoded in {:.2} ms ({:.1} Mpix/s), best of {}\n",
+        figures.file,
+        figures.width,
+        figures.height,
+        figures.ms,
+        figures.mpix_per_s,
+        figures.repeats
+    ))
 }
 
 fn json<T: serde::Serialize>(value: &T) -> Result<String, Error> {
