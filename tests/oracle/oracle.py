@@ -15,6 +15,7 @@ nothing else, so a disagreement points at camsim, not at glue code here.
 
 import json
 import struct
+import pathlib
 import sys
 import traceback
 import warnings
@@ -249,6 +250,42 @@ def op_rawpy_develop(args, arrays):
             adjust_maximum_thr=0.0,
         )
     return {}, [np.array(rgb, dtype=np.uint8)]
+
+
+def op_pidng_write(args, arrays):
+    """args: path, bits (8, 10, 12, 14 or 16), compress (lossless JPEG, else packed
+    uncompressed), pattern (CFA codes, 4 values), black, white. arrays[0]: the samples (H,W)
+    u16. Writes a DNG with pidng (an independent writer) as one tile covering the image."""
+    from pidng.core import RAW2DNG, DNGTags, Tag
+    from pidng.defs import DNGVersion, PhotometricInterpretation
+
+    samples = np.ascontiguousarray(arrays[0], dtype=np.uint16)
+    height, width = samples.shape
+    tags = DNGTags()
+    tags.set(Tag.ImageWidth, width)
+    tags.set(Tag.ImageLength, height)
+    tags.set(Tag.TileWidth, width)
+    tags.set(Tag.TileLength, height)
+    tags.set(Tag.Orientation, 1)
+    tags.set(Tag.PhotometricInterpretation, PhotometricInterpretation.Color_Filter_Array)
+    tags.set(Tag.SamplesPerPixel, 1)
+    tags.set(Tag.BitsPerSample, int(args["bits"]))
+    tags.set(Tag.CFARepeatPatternDim, [2, 2])
+    tags.set(Tag.CFAPattern, [int(v) for v in args["pattern"]])
+    tags.set(Tag.BlackLevel, int(args["black"]))
+    tags.set(Tag.WhiteLevel, int(args["white"]))
+    tags.set(Tag.ColorMatrix1, [[10000, 10000], [0, 10000], [0, 10000], [0, 10000], [10000, 10000], [0, 10000], [0, 10000], [0, 10000], [10000, 10000]])
+    tags.set(Tag.CalibrationIlluminant1, 21)
+    tags.set(Tag.AsShotNeutral, [[1, 2], [1, 1], [2, 3]])
+    tags.set(Tag.DNGVersion, DNGVersion.V1_4)
+    tags.set(Tag.Make, "pidng")
+    tags.set(Tag.Model, "oracle")
+    tags.set(Tag.UniqueCameraModel, "pidng oracle")
+    path = pathlib.Path(args["path"])
+    writer = RAW2DNG()
+    writer.options(tags, path=str(path.parent), compress=bool(args["compress"]))
+    writer.convert(samples, filename=path.stem)
+    return {}, []
 
 
 OPS = {name[3:]: fn for name, fn in globals().items() if name.startswith("op_")}
