@@ -128,6 +128,8 @@ pub enum FormatError {
     PngDecode(png::DecodingError),
     /// The `png` crate could not encode the image.
     PngEncode(png::EncodingError),
+    /// The `jpeg-encoder` crate could not encode the image.
+    JpegEncode(String),
 }
 
 impl FormatError {
@@ -212,6 +214,7 @@ impl fmt::Display for FormatError {
             Self::Toml { message } => f.write_str(message),
             Self::PngDecode(e) => write!(f, "not a readable PNG: {e}"),
             Self::PngEncode(e) => write!(f, "{e}"),
+            Self::JpegEncode(e) => write!(f, "JPEG encoding failed: {e}"),
         }
     }
 }

@@ -75,16 +75,128 @@ pub fn read_mosaic(path: &Path) -> Result<RawImage> {
     .map_err(|e| e.in_file(path))
 }
 
-/// Writes a PNG, PGM (grey) or PPM (RGB) file, chosen by its extension.
+const WRITE_EXTENSIONS: &str = ".png, .pgm, .ppm, .tif, .tiff, .jpg or .jpeg";
+
+/// How [`write_with`] encodes what the extension leaves open.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct WriteOptions {
+    /// JPEG quality, 1..=100.
+    pub jpeg_quality: u8,
+}
+
+impl Default for WriteOptions {
+    /// JPEG quality 90.
+    fn default() -> Self {
+        Self { jpeg_quality: 90 }
+    }
+}
+
+/// Writes a PNG, PGM (grey), PPM (RGB), TIFF or JPEG file, chosen by its extension, with
+/// [`WriteOptions::default`].
 pub fn write(path: &Path, image: &Image) -> Result<()> {
+    write_with(path, image, &WriteOptions::default())
+}
+
+/// Writes an image file chosen by its extension: PNG, PGM/PPM and TIFF (uncompressed, one
+/// strip) at the image's 8 or 16 bits, or JPEG (8 bits only) at `options.jpeg_quality`.
+pub fn write_with(path: &Path, image: &Image, options: &WriteOptions) -> Result<()> {
+    let expected = image
+        .width
+        .saturating_mul(image.height)
+        .saturating_mul(image.channels);
+    if !matches!(image.channels, 1 | 3)
+        || !matches!(image.bits, 8 | 16)
+        || image.data.len() != expected
+    {
+        return Err(FormatError::SizeMismatch {
+            what: "image samples (1 or 3 channels of 8 or 16 bits)",
+            found: image.data.len(),
+            expected,
+        }
+        .in_file(path));
+    }
     match extension(path).as_deref() {
         Some("png") => write_png(path, image),
         Some("pgm") | Some("ppm") => write_pnm(path, image),
+        Some("tif") | Some("tiff") => write_tiff(path, image),
+        Some("jpg") | Some("jpeg") => write_jpeg(path, image, options.jpeg_quality),
         _ => Err(FormatError::UnknownExtension {
-            expected: EXTENSIONS,
+            expected: WRITE_EXTENSIONS,
         }
         .in_file(path)),
     }
+}
+
+/// A baseline TIFF: grey or RGB, 8 or 16 bits, uncompressed, one little-endian strip.
+fn write_tiff(path: &Path, image: &Image) -> Result<()> {
+    use crate::dng::write::{layout, long, short};
+    if image.width > u32::MAX as usize || image.height > u32::MAX as usize {
+        return Err(FormatError::OutOfRange {
+            field: "TIFF size",
+            value: format!("{} x {}", image.width, image.height),
+            allowed: "up to 2^32 - 1 on each side".into(),
+        }
+        .in_file(path));
+    }
+    let bits = u16::from(image.bits);
+    let strip = if image.bits == 8 {
+        image.data.iter().map(|v| *v as u8).collect::<Vec<u8>>()
+    } else {
+        image.data.iter().flat_map(|v| v.to_le_bytes()).collect()
+    };
+    let entries = vec![
+        long(256, &[image.width as u32]),
+        long(257, &[image.height as u32]),
+        short(258, &vec![bits; image.channels]),
+        short(259, &[1]),
+        short(262, &[if image.channels == 3 { 2 } else { 1 }]),
+        long(273, &[0]), // patched by the layout
+        short(277, &[image.channels as u16]),
+        long(278, &[image.height as u32]),
+        long(279, &[strip.len() as u32]),
+        short(284, &[1]),
+    ];
+    let bytes = layout(entries, &[strip], true);
+    std::fs::write(path, bytes).map_err(|e| FormatError::io(path, e))
+}
+
+/// A baseline JPEG of an 8-bit image.
+fn write_jpeg(path: &Path, image: &Image, quality: u8) -> Result<()> {
+    if image.bits != 8 {
+        return Err(FormatError::Unsupported {
+            field: "bit depth for JPEG",
+            value: image.bits.to_string(),
+            supported: "8 (write 16-bit images as .png or .tif)",
+        }
+        .in_file(path));
+    }
+    if !(1..=100).contains(&quality) {
+        return Err(FormatError::OutOfRange {
+            field: "JPEG quality",
+            value: quality.to_string(),
+            allowed: "1..=100".into(),
+        }
+        .in_file(path));
+    }
+    let (Ok(width), Ok(height)) = (u16::try_from(image.width), u16::try_from(image.height)) else {
+        return Err(FormatError::OutOfRange {
+            field: "JPEG size",
+            value: format!("{} x {}", image.width, image.height),
+            allowed: "up to 65535 on each side".into(),
+        }
+        .in_file(path));
+    };
+    let colour = if image.channels == 3 {
+        jpeg_encoder::ColorType::Rgb
+    } else {
+        jpeg_encoder::ColorType::Luma
+    };
+    let bytes: Vec<u8> = image.data.iter().map(|v| *v as u8).collect();
+    let mut out = Vec::new();
+    jpeg_encoder::Encoder::new(&mut out, quality)
+        .encode(&bytes, width, height, colour)
+        .map_err(|e| FormatError::JpegEncode(e.to_string()).in_file(path))?;
+    std::fs::write(path, out).map_err(|e| FormatError::io(path, e))
 }
 
 fn read_png(path: &Path) -> Result<Image> {

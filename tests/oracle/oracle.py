@@ -288,6 +288,19 @@ def op_pidng_write(args, arrays):
     return {}, []
 
 
+def op_image_read(args, arrays):
+    """args: path of an image file. Returns what OpenCV reads, unchanged in depth: (H,W,3) in
+    RGB order, or (H,W) for grey, as float64."""
+    import cv2
+
+    image = cv2.imread(args["path"], cv2.IMREAD_UNCHANGED)
+    if image is None:
+        raise ValueError(f"OpenCV could not read {args['path']}")
+    if image.ndim == 3:
+        image = image[:, :, ::-1]
+    return {"dtype": str(image.dtype)}, [np.ascontiguousarray(image, dtype=np.float64)]
+
+
 OPS = {name[3:]: fn for name, fn in globals().items() if name.startswith("op_")}
 
 

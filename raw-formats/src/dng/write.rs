@@ -438,9 +438,9 @@ impl Dng {
     }
 }
 
-/// Header, IFD, out-of-line values, then the segments (each starting on an even offset),
+/// A TIFF file: header, IFD, out-of-line values, then the segments (each starting on an even offset),
 /// with the StripOffsets or TileOffsets entry pointing at them.
-fn layout(mut entries: Vec<Entry>, segments: &[Vec<u8>], little: bool) -> Vec<u8> {
+pub(crate) fn layout(mut entries: Vec<Entry>, segments: &[Vec<u8>], little: bool) -> Vec<u8> {
     let ifd_len = 2 + 12 * entries.len() + 4;
     let extra_len: usize = entries
         .iter()

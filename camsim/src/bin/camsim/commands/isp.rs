@@ -21,9 +21,13 @@ pub struct IspArgs {
     /// or PGM mosaic.
     #[arg(long)]
     pub input: PathBuf,
-    /// Output sRGB image (.png or .ppm).
+    /// Output sRGB image, by extension: .png (8 or 16 bits), .tif/.tiff (8 or 16 bits,
+    /// uncompressed), .jpg/.jpeg (8 bits) or .ppm.
     #[arg(long)]
     pub output: PathBuf,
+    /// JPEG quality, 1..=100, for a .jpg output [default: 90].
+    #[arg(long, value_parser = clap::value_parser!(u8).range(1..=100))]
+    pub jpeg_quality: Option<u8>,
     /// TOML file of processing options, keyed by these flags' names (plus an `[lsc]` grid and
     /// a `defects` list); flags given on the command line win.
     #[arg(long)]
@@ -158,6 +162,9 @@ pub fn run(args: &IspArgs) -> Result<String, Error> {
         e @ Error::SampleRange { .. } => e.in_file(&args.input),
         e => e,
     })?;
-    raw_formats::image::write(&args.output, &rgb)?;
+    let write_options = raw_formats::image::WriteOptions {
+        jpeg_quality: args.jpeg_quality.unwrap_or(90),
+    };
+    raw_formats::image::write_with(&args.output, &rgb, &write_options)?;
     Ok(report.to_text() + &format!("wrote {}\n", args.output.display()))
 }
