@@ -416,6 +416,7 @@ pub fn run(
             ..dng_colour
         },
         framing: Default::default(),
+        processing: Default::default(),
     };
     dng.write(&out("raw.dng"))?;
     raw_formats::image::write(

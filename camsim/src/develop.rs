@@ -21,6 +21,7 @@ use isp_core::pipeline::{FixedPipeline, FloatPipeline, IspConfig, OutputSample};
 use isp_core::tone::Look;
 use isp_core::wb::{self, AwbEstimate};
 use isp_core::IspError;
+use raw_formats::dng::opcodes::Opcode;
 use raw_formats::dng::{Dng, Framing};
 use raw_formats::framing::Orientation;
 use raw_formats::{FormatError, Image, RawImage};
@@ -47,6 +48,8 @@ pub struct IspReport {
     pub total_ms: f64,
     /// How the output was cropped and turned, when the file asked for either.
     pub framing: Option<String>,
+    /// The file's BaselineExposure in EV, when applied.
+    pub baseline_exposure: Option<f64>,
 }
 
 impl IspReport {
@@ -70,6 +73,12 @@ impl IspReport {
             let [k1, k2, p1, p2, k3] = lens.model().to_opencv();
             out += &format!(
                 "distortion: k1 {k1} k2 {k2} p1 {p1} p2 {p2} k3 {k3}, camera fx {fx} fy {fy} cx {cx} cy {cy}, window {window} rows\n"
+            );
+        }
+        if let Some(ev) = self.baseline_exposure {
+            out += &format!(
+                "baseline exposure: {ev:+.2} EV from the file, as gain {:.4} (--no-baseline-exposure turns it off)\n",
+                2f64.powf(ev)
             );
         }
         if let Some(framing) = &self.framing {
@@ -98,6 +107,10 @@ pub struct RawInput {
     pub calibration: Option<Calibration>,
     /// The file's recommended crop and orientation.
     pub framing: Framing,
+    /// The file's BaselineExposure in EV, applied as gain unless turned off.
+    pub baseline_exposure: Option<f64>,
+    /// The opcodes the file lists, by name and whether optional, none of which is applied yet.
+    pub opcodes_not_applied: Vec<(&'static str, bool)>,
 }
 
 impl RawInput {
@@ -109,6 +122,8 @@ impl RawInput {
             defaults: IspOptions::default(),
             calibration: None,
             framing: Framing::default(),
+            baseline_exposure: None,
+            opcodes_not_applied: Vec::new(),
         }
     }
 
@@ -137,6 +152,17 @@ impl RawInput {
             defaults,
             calibration,
             framing: dng.framing,
+            baseline_exposure: dng.processing.baseline_exposure,
+            opcodes_not_applied: dng
+                .processing
+                .opcode_lists
+                .iter()
+                .flatten()
+                .map(|op| {
+                    let optional = matches!(op, Opcode::Other { optional: true, .. });
+                    (op.name(), optional)
+                })
+                .collect(),
         })
     }
 }
@@ -234,13 +260,18 @@ pub fn develop(
         }
         None => None,
     };
+    // BaselineExposure raises (or lowers) the whole raw, as the ISO gain stage does.
+    let baseline_ev = input
+        .baseline_exposure
+        .filter(|_| options.baseline_exposure.unwrap_or(true));
+    let exposure_gain = baseline_ev.map_or(1.0, |ev| 2f64.powf(ev) as f32);
     let config = IspConfig {
         dpc: DpcConfig {
             static_defects: &defects,
             dynamic_threshold: options.dpc_threshold,
         },
         lsc,
-        gain: options.gain.unwrap_or(1.0),
+        gain: options.gain.unwrap_or(1.0) * exposure_gain,
         wb_gains,
         demosaic,
         distortion,
@@ -253,6 +284,7 @@ pub fn develop(
     let out_bits = options.out_bits.unwrap_or(8);
     let (mut report, rgb) = execute(&raw, &config, fixed, out_bits)?;
     report.awb = awb;
+    report.baseline_exposure = baseline_ev;
     let (rgb, framing) = frame(rgb, &input.framing, options.crop.unwrap_or_default())?;
     report.framing = framing;
     Ok((report, rgb))
@@ -366,6 +398,7 @@ pub fn execute(
         stage_ms,
         total_ms,
         framing: None,
+        baseline_exposure: None,
     };
     let rgb = Image {
         width: w,

@@ -189,6 +189,8 @@ pub struct IspOptions {
     pub camera_matrix: Option<[f64; 4]>,
     /// The output's framing: the file's recommended crop, or the whole active area.
     pub crop: Option<CropChoice>,
+    /// Whether a DNG's BaselineExposure is applied (as gain).
+    pub baseline_exposure: Option<bool>,
 }
 
 /// Which part of the raw's active area the developed image shows.
@@ -234,6 +236,7 @@ impl IspOptions {
             distortion: self.distortion.or(fallback.distortion),
             camera_matrix: self.camera_matrix.or(fallback.camera_matrix),
             crop: self.crop.or(fallback.crop),
+            baseline_exposure: self.baseline_exposure.or(fallback.baseline_exposure),
         }
     }
 }
@@ -352,7 +355,7 @@ pub fn camera_matrix(values: Vec<f64>, what: &str) -> Result<[f64; 4]> {
 }
 
 /// The file's keys, each the name of a flag (or a table the command line has no flag for).
-const KEYS: [&str; 19] = [
+const KEYS: [&str; 20] = [
     "pattern",
     "bits",
     "black-level",
@@ -372,6 +375,7 @@ const KEYS: [&str; 19] = [
     "distortion",
     "camera-matrix",
     "crop",
+    "baseline-exposure",
 ];
 
 /// One value of the file, with where it is for error messages.
@@ -406,6 +410,13 @@ impl Field<'_> {
             .get_ref()
             .as_str()
             .ok_or_else(|| self.error("expected a string"))
+    }
+
+    fn boolean(&self) -> Result<bool> {
+        self.value
+            .get_ref()
+            .as_bool()
+            .ok_or_else(|| self.error("expected true or false"))
     }
 
     fn integer(&self, max: i64) -> Result<i64> {
@@ -525,6 +536,7 @@ pub fn from_toml(text: &str, file: &Path) -> Result<IspOptions> {
                 options.camera_matrix = Some(f.check(camera_matrix(f.numbers()?, key))?)
             }
             "crop" => options.crop = Some(f.check(crop(f.string()?, key))?),
+            "baseline-exposure" => options.baseline_exposure = Some(f.boolean()?),
             other => {
                 return Err(f.error(format!(
                     "unknown key {other:?}; known keys: {}",

@@ -437,6 +437,28 @@ fn isp_develops_a_lossless_jpeg_cinema_dng_at_its_default_crop_or_the_active_are
         "all",
     ]);
     assert!(!ok && stderr.contains("--crop"), "{stderr}");
+    // BaselineExposure (+0.1 EV) brightens the image unless turned off.
+    let mean = |extra: &[&str]| {
+        let output = dir.join("exposure.png");
+        let mut args = vec![
+            "isp",
+            "--input",
+            input.to_str().unwrap(),
+            "--output",
+            output.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        let (ok, stdout, stderr) = camsim(&args);
+        assert!(ok, "{stderr}");
+        assert_eq!(
+            stdout.contains("baseline exposure"),
+            extra.is_empty(),
+            "{stdout}"
+        );
+        let rgb = imageio::read(&output).unwrap();
+        rgb.data.iter().map(|v| f64::from(*v)).sum::<f64>() / rgb.data.len() as f64
+    };
+    assert!(mean(&[]) > mean(&["--no-baseline-exposure"]) + 0.5);
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -11,10 +11,11 @@
 
 use isp_core::CfaPattern;
 
+use crate::dng::opcodes::{self, GainMap, Opcode};
 use crate::dng::write::{long, short, srational};
 use crate::dng::{
     tags, ColourCalibration, Crop, Dng, DngColour, EncodeOptions, Framing, Illuminant, Orientation,
-    Storage,
+    Processing, Storage,
 };
 use crate::lossless_jpeg::{self, Frame};
 use crate::raw_image::RawImage;
@@ -35,6 +36,15 @@ pub fn dng_decode(data: &[u8]) {
             let back = Dng::decode(&bytes).expect("the writer's output decodes");
             assert_eq!(back.image, dng.image);
         }
+    }
+}
+
+/// Opcode lists: any bytes are a list or an error (never a panic or an allocation the bytes do
+/// not justify); a list that parses encodes back to bytes that parse to the same list.
+pub fn opcode_list(data: &[u8]) {
+    if let Ok(list) = opcodes::parse(data) {
+        let again = opcodes::parse(&opcodes::encode(&list)).expect("an encoded list parses");
+        assert_eq!(again, list);
     }
 }
 
@@ -108,6 +118,7 @@ fn seed_dng(bits: u8, pattern: CfaPattern, framing: Framing) -> Dng {
             ..DngColour::default()
         },
         framing,
+        processing: Default::default(),
     }
 }
 
@@ -200,6 +211,23 @@ pub fn seed_corpus() -> Vec<(&'static str, String, Vec<u8>)> {
             .expect("seed DNGs encode");
         seeds.push(("dng_decode", format!("{name}.dng"), bytes));
     }
+    let lists = seed_opcode_lists();
+    let mut with_opcodes = seed_dng(12, CfaPattern::Bggr, Framing::default());
+    with_opcodes.processing = Processing {
+        baseline_exposure: Some(0.25),
+        opcode_lists: lists.clone(),
+    };
+    let bytes = with_opcodes
+        .encode_with(&EncodeOptions::default())
+        .expect("seed DNGs encode");
+    seeds.push(("dng_decode", "opcodes.dng".into(), bytes));
+    for (i, list) in lists.iter().enumerate() {
+        seeds.push((
+            "opcode_list",
+            format!("list{}.bin", i + 1),
+            opcodes::encode(list),
+        ));
+    }
     for components in 1..=4u8 {
         for predictor in 1..=7u8 {
             let frame = Frame {
@@ -221,4 +249,49 @@ pub fn seed_corpus() -> Vec<(&'static str, String, Vec<u8>)> {
         }
     }
     seeds
+}
+
+/// One list per stage, every opcode kind the parser knows among them.
+fn seed_opcode_lists() -> [Vec<Opcode>; 3] {
+    let gain_map = |top: u32, left: u32| {
+        Opcode::GainMap(GainMap {
+            area: [top, left, 12, 20],
+            plane: 0,
+            planes: 1,
+            row_pitch: 2,
+            col_pitch: 2,
+            points: [3, 4],
+            spacing: [0.5, 1.0 / 3.0],
+            origin: [0.0, 0.0],
+            map_planes: 1,
+            gains: (0..12).map(|i| 1.0 + i as f32 / 20.0).collect(),
+        })
+    };
+    [
+        vec![
+            Opcode::FixBadPixelsConstant {
+                constant: 0,
+                bayer_phase: 0,
+            },
+            Opcode::Other {
+                id: 11,
+                optional: true,
+            },
+        ],
+        vec![
+            gain_map(0, 0),
+            gain_map(0, 1),
+            gain_map(1, 0),
+            gain_map(1, 1),
+            Opcode::FixBadPixelsList {
+                bayer_phase: 0,
+                points: vec![[3, 4], [7, 9]],
+                rects: vec![[0, 0, 2, 2]],
+            },
+        ],
+        vec![Opcode::WarpRectilinear {
+            planes: vec![[1.0, -0.05, 0.01, 0.0, 0.001, -0.001]],
+            centre: [0.5, 0.5],
+        }],
+    ]
 }

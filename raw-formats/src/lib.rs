@@ -1,11 +1,14 @@
-//! raw-formats: camsim's files. Raw DNG (TIFF) read and write ([`dng`]), PNG and binary
-//! PGM/PPM images and mosaics at 8 or 16 bits ([`image`]), and an OpenEXR writer for linear
-//! float images ([`exr`]), and camsim's colour calibration file ([`calibration`]).
+//! raw-formats: camsim's files. Raw DNG (TIFF) read and write ([`dng`], with its lossless
+//! JPEG codec in [`lossless_jpeg`] and the output framing in [`framing`]), PNG and binary
+//! PGM/PPM images and mosaics at 8 or 16 bits, TIFF and JPEG out ([`image`]), an OpenEXR
+//! writer for linear float images ([`exr`]), and camsim's colour calibration file
+//! ([`calibration`]).
 //!
 //! It is a library of its own so that anything that reads or writes camera files (the `camsim`
 //! command line, the tests, the fuzz targets, a user's tool) needs neither the path tracer nor
 //! the command line: it depends on isp-core (for [`isp_core::CfaPattern`], the borrowed
-//! [`isp_core::frame::RawFrame`] view and the colour calibration) and the `png` crate only.
+//! [`isp_core::frame::RawFrame`] view and the colour calibration), the `png` and
+//! `jpeg-encoder` crates, and serde and toml for the calibration file.
 //!
 //! Two types carry the data between layers:
 //! - [`RawImage`]: the one owned raw frame (samples, size, pattern, black per 2x2 position,

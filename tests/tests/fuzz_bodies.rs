@@ -207,6 +207,7 @@ fn valid_dng() -> Vec<u8> {
             ..DngColour::default()
         },
         framing: Default::default(),
+        processing: Default::default(),
     }
     .encode()
     .unwrap()
@@ -257,12 +258,14 @@ fn committed_corpus_replays_through_the_decoders() {
     for (target, body) in [
         ("dng_decode", dng_decode as fn(&[u8])),
         ("lossless_jpeg", lossless_jpeg_decode),
+        ("opcode_list", opcode_list),
     ] {
         for entry in std::fs::read_dir(root.join(target)).expect("fuzz/seeds/TARGET exists") {
             let data = std::fs::read(entry.unwrap().path()).unwrap();
             body(&data);
             let ok = match target {
                 "dng_decode" => raw_formats::dng::Dng::decode(&data).is_ok(),
+                "opcode_list" => raw_formats::dng::opcodes::parse(&data).is_ok(),
                 _ => raw_formats::lossless_jpeg::frame(&data).is_ok_and(|f| {
                     raw_formats::lossless_jpeg::decode(&data, &mut vec![0; f.sample_count()])
                         .is_ok()
@@ -294,8 +297,10 @@ proptest! {
         }
         match *target {
             "dng_decode" => dng_decode(&data),
+            "opcode_list" => opcode_list(&data),
             _ => lossless_jpeg_decode(&data),
         }
+        opcode_list(&noise);
         lossless_jpeg_decode(&noise);
         dng_decode(&noise);
     }

@@ -39,6 +39,7 @@
 //!         ..DngColour::default()
 //!     },
 //!     framing: Default::default(),
+//!     processing: Default::default(),
 //! };
 //! let bytes = dng.encode().unwrap();
 //! assert_eq!(Dng::decode(&bytes).unwrap(), dng);
@@ -57,6 +58,7 @@ use crate::error::{FormatError, Result};
 pub use crate::framing::{Crop, Orientation};
 use crate::raw_image::RawImage;
 
+pub mod opcodes;
 mod read;
 mod tiff;
 pub(crate) mod write;
@@ -242,6 +244,19 @@ pub struct Dng {
     pub colour: DngColour,
     /// The recommended crop and which way is up.
     pub framing: Framing,
+    /// Processing the file asks for beyond levels and colour.
+    pub processing: Processing,
+}
+
+/// What a DNG asks a raw converter to do beyond levels and colour.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Processing {
+    /// BaselineExposure (IFD 0): the exposure, in EV, that makes the camera's rendering
+    /// "normal" (DNG 1.4); converters apply it by default.
+    pub baseline_exposure: Option<f64>,
+    /// OpcodeList1 (applied to the raw as stored), OpcodeList2 (after linearisation, before
+    /// demosaicing) and OpcodeList3 (after demosaicing), from the raw IFD.
+    pub opcode_lists: [Vec<opcodes::Opcode>; 3],
 }
 
 /// How the file says its image is framed, for the developer to apply to its output.
@@ -290,6 +305,8 @@ pub(crate) mod tags {
     pub(crate) const DEFAULT_CROP_ORIGIN: u16 = 50719;
     pub(crate) const DEFAULT_CROP_SIZE: u16 = 50720;
     pub(crate) const ACTIVE_AREA: u16 = 50829;
+    pub(crate) const BASELINE_EXPOSURE: u16 = 50730;
+    pub(crate) const OPCODE_LISTS: [u16; 3] = [51008, 51009, 51022];
     pub(crate) const COLOR_MATRIX_1: u16 = 50721;
     pub(crate) const COLOR_MATRIX_2: u16 = 50722;
     pub(crate) const CAMERA_CALIBRATION_1: u16 = 50723;
@@ -309,6 +326,7 @@ pub(crate) mod tags {
     pub(crate) const SHORT: u16 = 3;
     pub(crate) const LONG: u16 = 4;
     pub(crate) const RATIONAL: u16 = 5;
+    pub(crate) const UNDEFINED: u16 = 7;
     pub(crate) const SRATIONAL: u16 = 10;
 }
 
@@ -380,6 +398,7 @@ mod tests {
                 ..DngColour::default()
             },
             framing: Framing::default(),
+            processing: Processing::default(),
         }
     }
 
@@ -630,6 +649,35 @@ mod tests {
             write::long(DEFAULT_CROP_SIZE, &[4, 3]),
         ]);
         assert!(crop.contains("crop"), "{crop}");
+    }
+
+    #[test]
+    fn opcode_lists_and_baseline_exposure_round_trip() {
+        use opcodes::Opcode;
+        let mut d = sample();
+        d.processing = Processing {
+            baseline_exposure: Some(-0.35),
+            opcode_lists: [
+                vec![Opcode::FixBadPixelsList {
+                    bayer_phase: 0,
+                    points: vec![[1, 2]],
+                    rects: vec![],
+                }],
+                vec![Opcode::Other {
+                    id: 12,
+                    optional: true,
+                }],
+                vec![],
+            ],
+        };
+        for little_endian in [true, false] {
+            let options = EncodeOptions {
+                little_endian,
+                ..EncodeOptions::default()
+            };
+            let back = Dng::decode(&d.encode_with(&options).unwrap()).unwrap();
+            assert_eq!(back.processing, d.processing);
+        }
     }
 
     #[test]

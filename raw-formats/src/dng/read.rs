@@ -7,7 +7,7 @@ use isp_core::CfaPattern;
 use super::tags::*;
 use super::tiff::{Ifd, Tiff};
 use super::{cfa_codes, ColourCalibration, Crop, Dng, DngColour, Framing, Illuminant};
-use super::{Orientation, CALIBRATION_TAGS};
+use super::{opcodes, Orientation, Processing, CALIBRATION_TAGS};
 use crate::error::{FormatError, Result};
 use crate::lossless_jpeg;
 use crate::raw_image::RawImage;
@@ -306,6 +306,17 @@ impl Tiff<'_> {
             raw,
         )?;
         let framing = self.framing(ifd, ifd0, width, height)?;
+        let mut processing = Processing {
+            baseline_exposure: self
+                .first(ifd0, BASELINE_EXPOSURE)?
+                .filter(|v| v.is_finite()),
+            ..Processing::default()
+        };
+        for (list, tag) in processing.opcode_lists.iter_mut().zip(OPCODE_LISTS) {
+            if let Some(e) = ifd.get(tag) {
+                *list = opcodes::parse(self.raw_bytes(e)?)?;
+            }
+        }
         let colour = self.colour(ifd0)?;
         let camera_model = self
             .text(ifd0, UNIQUE_CAMERA_MODEL)
@@ -316,6 +327,7 @@ impl Tiff<'_> {
             camera_model,
             colour,
             framing,
+            processing,
         })
     }
 

@@ -171,6 +171,13 @@ impl<'a> Tiff<'a> {
         })
     }
 
+    /// An entry's bytes as stored (for BYTE and UNDEFINED values such as opcode lists).
+    pub(super) fn raw_bytes(&self, entry: (u16, u32, usize)) -> Result<&'a [u8]> {
+        let (kind, count, field) = entry;
+        let (at, size) = self.value_offset(kind, count, field)?;
+        self.bytes(at, size * count as usize)
+    }
+
     pub(super) fn text(&self, ifd: &Ifd, tag: u16) -> Option<String> {
         let (kind, count, field) = ifd.get(tag)?;
         if kind != ASCII {

@@ -56,6 +56,7 @@ impl Default for EncodeOptions {
 /// An entry's values, typed so either byte order can be written.
 pub(crate) enum Values {
     Bytes(Vec<u8>),
+    Undefined(Vec<u8>),
     Ascii(Vec<u8>),
     Short(Vec<u16>),
     Long(Vec<u32>),
@@ -72,6 +73,7 @@ impl Entry {
     fn kind_and_count(&self) -> (u16, usize) {
         match &self.values {
             Values::Bytes(v) => (BYTE, v.len()),
+            Values::Undefined(v) => (UNDEFINED, v.len()),
             Values::Ascii(v) => (ASCII, v.len()),
             Values::Short(v) => (SHORT, v.len()),
             Values::Long(v) => (LONG, v.len()),
@@ -96,7 +98,7 @@ impl Entry {
             }
         };
         match &self.values {
-            Values::Bytes(v) | Values::Ascii(v) => v.clone(),
+            Values::Bytes(v) | Values::Undefined(v) | Values::Ascii(v) => v.clone(),
             Values::Short(v) => v.iter().flat_map(|x| u16b(*x)).collect(),
             Values::Long(v) => v.iter().flat_map(|x| u32b(*x)).collect(),
             Values::Rational(v) => v
@@ -424,6 +426,24 @@ impl Dng {
         if let Some(n) = self.colour.as_shot_neutral {
             millionths("as-shot neutral", n)?;
             entries.push(rational(AS_SHOT_NEUTRAL, &n));
+        }
+        if let Some(ev) = self.processing.baseline_exposure {
+            if !ev.is_finite() || ev.abs() > 100.0 {
+                return Err(FormatError::OutOfRange {
+                    field: "baseline exposure",
+                    value: ev.to_string(),
+                    allowed: "-100..=100 EV".into(),
+                });
+            }
+            entries.push(srational(BASELINE_EXPOSURE, &[ev]));
+        }
+        for (list, tag) in self.processing.opcode_lists.iter().zip(OPCODE_LISTS) {
+            if !list.is_empty() {
+                entries.push(Entry {
+                    tag,
+                    values: Values::Undefined(super::opcodes::encode(list)),
+                });
+            }
         }
         entries.retain(|e| extra.iter().all(|x| x.tag != e.tag));
         entries.extend(extra);

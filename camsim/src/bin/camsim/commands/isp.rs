@@ -91,6 +91,10 @@ pub struct IspArgs {
     /// converters do; `active` keeps the whole active area, as LibRaw does [default: default].
     #[arg(long, value_enum)]
     pub crop: Option<CropArg>,
+    /// Leave a DNG's BaselineExposure unapplied (it is applied as gain by default, as Adobe's
+    /// converters do; LibRaw leaves it out).
+    #[arg(long)]
+    pub no_baseline_exposure: bool,
 }
 
 impl IspArgs {
@@ -137,6 +141,7 @@ impl IspArgs {
                 .map(|v| options::camera_matrix(v, "--camera-matrix"))
                 .transpose()?,
             crop: self.crop.map(Into::into),
+            baseline_exposure: self.no_baseline_exposure.then_some(false),
         })
     }
 
@@ -158,6 +163,14 @@ pub fn run(args: &IspArgs) -> Result<String, Error> {
         Some(path) => Some(CalibrationFile::read(path)?.to_isp()?),
         None => None,
     };
+    for (name, optional) in &input.opcodes_not_applied {
+        let kind = if *optional {
+            "optional"
+        } else {
+            "not marked optional"
+        };
+        eprintln!("note: the file's {name} opcode ({kind}) is not applied yet");
+    }
     let (report, rgb) = develop(&input, &options, calibration).map_err(|e| match e {
         e @ Error::SampleRange { .. } => e.in_file(&args.input),
         e => e,

@@ -1,0 +1,416 @@
+//! DNG opcode lists (OpcodeList1/2/3, tags 51008/51009/51022): the processing steps a file
+//! asks for, always big-endian whatever the file's byte order (DNG 1.4, chapter 7). Each list
+//! is a count, then per opcode its id, the DNG version it was written for, its flags (bit 0:
+//! optional; bit 1: may be skipped for previews), the size of its parameters, and those.
+//!
+//! Parsed here are the opcodes the pipeline has stages for: GainMap (lens shading),
+//! FixBadPixelsConstant and FixBadPixelsList (defect correction) and WarpRectilinear (lens
+//! distortion). Any other is kept as [`Opcode::Other`] with its id and flags, so the developer
+//! can skip an optional one with a note and refuse one that is not optional, by name.
+
+use crate::error::{FormatError, Result};
+
+/// GainMap (opcode 9): gains over a grid, relative to the image area, for some planes of a
+/// region of pixels, applied by multiplying.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GainMap {
+    /// The region `[top, left, bottom, right]` the map applies to.
+    pub area: [u32; 4],
+    /// First plane (colour) and the number of planes it applies to.
+    pub plane: u32,
+    /// Number of planes.
+    pub planes: u32,
+    /// Only every `row_pitch`-th row and `col_pitch`-th column of the area take gains (2 and 2
+    /// with a phase from `area` selects one CFA colour).
+    pub row_pitch: u32,
+    /// Column pitch, as `row_pitch`.
+    pub col_pitch: u32,
+    /// Map points vertically and horizontally.
+    pub points: [u32; 2],
+    /// Spacing of map points, vertically and horizontally, as fractions of the image size.
+    pub spacing: [f64; 2],
+    /// Position of the first map point, vertically and horizontally, as fractions of the
+    /// image size.
+    pub origin: [f64; 2],
+    /// Planes in the map (1: the same gains for every plane).
+    pub map_planes: u32,
+    /// Gains, `points[0] x points[1] x map_planes`, row by row, planes innermost.
+    pub gains: Vec<f32>,
+}
+
+/// One opcode of a list.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Opcode {
+    /// WarpRectilinear (opcode 1): radial and tangential distortion per plane, about an optical
+    /// centre given as fractions of the image size.
+    WarpRectilinear {
+        /// Per plane: kr0, kr1, kr2, kr3 (radial), kt0, kt1 (tangential).
+        planes: Vec<[f64; 6]>,
+        /// Optical centre (x, y), normalised to the image size.
+        centre: [f64; 2],
+    },
+    /// FixBadPixelsConstant (opcode 4): every pixel whose raw value is `constant` is defective.
+    FixBadPixelsConstant {
+        /// The marker value.
+        constant: u32,
+        /// The CFA phase of the image's top-left pixel (0 red, 1 green on a red row, ...).
+        bayer_phase: u32,
+    },
+    /// FixBadPixelsList (opcode 5): listed defective pixels and rectangles.
+    FixBadPixelsList {
+        /// The CFA phase of the image's top-left pixel.
+        bayer_phase: u32,
+        /// Defective pixels as (row, column).
+        points: Vec<[u32; 2]>,
+        /// Defective rectangles as (top, left, bottom, right).
+        rects: Vec<[u32; 4]>,
+    },
+    /// GainMap (opcode 9).
+    GainMap(GainMap),
+    /// Any other opcode, by id, with whether the file marks it optional.
+    Other {
+        /// The opcode id.
+        id: u32,
+        /// Flag bit 0: a reader may skip it.
+        optional: bool,
+    },
+}
+
+impl Opcode {
+    /// The opcode's name in the DNG specification.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Opcode::WarpRectilinear { .. } => "WarpRectilinear",
+            Opcode::FixBadPixelsConstant { .. } => "FixBadPixelsConstant",
+            Opcode::FixBadPixelsList { .. } => "FixBadPixelsList",
+            Opcode::GainMap(_) => "GainMap",
+            Opcode::Other { id, .. } => match id {
+                2 => "WarpFisheye",
+                3 => "FixVignetteRadial",
+                6 => "TrimBounds",
+                7 => "MapTable",
+                8 => "MapPolynomial",
+                10 => "DeltaPerRow",
+                11 => "DeltaPerColumn",
+                12 => "ScalePerRow",
+                13 => "ScalePerColumn",
+                14 => "WarpRectilinear2",
+                _ => "an unknown opcode",
+            },
+        }
+    }
+}
+
+/// Big-endian reads over one opcode's parameters, every read checked.
+struct Reader<'a> {
+    data: &'a [u8],
+    at: usize,
+}
+
+impl Reader<'_> {
+    fn take<const N: usize>(&mut self) -> Result<[u8; N]> {
+        let bytes = self
+            .at
+            .checked_add(N)
+            .and_then(|end| self.data.get(self.at..end))
+            .ok_or(FormatError::Truncated {
+                offset: self.at,
+                len: N,
+            })?;
+        self.at += N;
+        let mut out = [0u8; N];
+        out.copy_from_slice(bytes);
+        Ok(out)
+    }
+
+    fn u32(&mut self) -> Result<u32> {
+        self.take().map(u32::from_be_bytes)
+    }
+
+    fn f64(&mut self) -> Result<f64> {
+        let v = f64::from_be_bytes(self.take()?);
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(FormatError::OutOfRange {
+                field: "opcode parameter",
+                value: v.to_string(),
+                allowed: "a finite number".into(),
+            })
+        }
+    }
+
+    fn f32(&mut self) -> Result<f32> {
+        let v = f32::from_be_bytes(self.take()?);
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(FormatError::OutOfRange {
+                field: "GainMap gain",
+                value: v.to_string(),
+                allowed: "a finite number".into(),
+            })
+        }
+    }
+
+    /// `count` items of `size` bytes must fit in what is left: checked before allocating.
+    fn room_for(&self, count: u64, size: u64, what: &'static str) -> Result<usize> {
+        let left = (self.data.len() - self.at.min(self.data.len())) as u64;
+        if count.saturating_mul(size) > left {
+            return Err(FormatError::SizeMismatch {
+                what,
+                found: left as usize,
+                expected: count.saturating_mul(size).min(usize::MAX as u64) as usize,
+            });
+        }
+        Ok(count as usize)
+    }
+}
+
+fn parse_one(id: u32, optional: bool, params: &[u8]) -> Result<Opcode> {
+    let mut r = Reader {
+        data: params,
+        at: 0,
+    };
+    Ok(match id {
+        1 => {
+            let n = r.u32()?;
+            if !(1..=4).contains(&n) {
+                return Err(FormatError::OutOfRange {
+                    field: "WarpRectilinear planes",
+                    value: n.to_string(),
+                    allowed: "1..=4".into(),
+                });
+            }
+            let mut planes = Vec::with_capacity(n as usize);
+            for _ in 0..n {
+                let mut k = [0.0; 6];
+                for v in k.iter_mut() {
+                    *v = r.f64()?;
+                }
+                planes.push(k);
+            }
+            let centre = [r.f64()?, r.f64()?];
+            Opcode::WarpRectilinear { planes, centre }
+        }
+        4 => Opcode::FixBadPixelsConstant {
+            constant: r.u32()?,
+            bayer_phase: r.u32()?,
+        },
+        5 => {
+            let bayer_phase = r.u32()?;
+            let (n_points, n_rects) = (r.u32()?, r.u32()?);
+            let n_points = r.room_for(u64::from(n_points), 8, "FixBadPixelsList points")?;
+            let mut points = Vec::with_capacity(n_points);
+            for _ in 0..n_points {
+                points.push([r.u32()?, r.u32()?]);
+            }
+            let n_rects = r.room_for(u64::from(n_rects), 16, "FixBadPixelsList rectangles")?;
+            let mut rects = Vec::with_capacity(n_rects);
+            for _ in 0..n_rects {
+                rects.push([r.u32()?, r.u32()?, r.u32()?, r.u32()?]);
+            }
+            Opcode::FixBadPixelsList {
+                bayer_phase,
+                points,
+                rects,
+            }
+        }
+        9 => {
+            let area = [r.u32()?, r.u32()?, r.u32()?, r.u32()?];
+            let (plane, planes, row_pitch, col_pitch) = (r.u32()?, r.u32()?, r.u32()?, r.u32()?);
+            let points = [r.u32()?, r.u32()?];
+            let spacing = [r.f64()?, r.f64()?];
+            let origin = [r.f64()?, r.f64()?];
+            let map_planes = r.u32()?;
+            if points[0] == 0
+                || points[1] == 0
+                || map_planes == 0
+                || row_pitch == 0
+                || col_pitch == 0
+            {
+                return Err(FormatError::OutOfRange {
+                    field: "GainMap points, planes or pitch",
+                    value: format!("{points:?}, {map_planes}, {row_pitch}x{col_pitch}"),
+                    allowed: "at least 1 each".into(),
+                });
+            }
+            let count = u64::from(points[0])
+                .saturating_mul(u64::from(points[1]))
+                .saturating_mul(u64::from(map_planes));
+            let count = r.room_for(count, 4, "GainMap gains")?;
+            let mut gains = Vec::with_capacity(count);
+            for _ in 0..count {
+                gains.push(r.f32()?);
+            }
+            Opcode::GainMap(GainMap {
+                area,
+                plane,
+                planes,
+                row_pitch,
+                col_pitch,
+                points,
+                spacing,
+                origin,
+                map_planes,
+                gains,
+            })
+        }
+        _ => Opcode::Other { id, optional },
+    })
+}
+
+/// Parses an opcode list's bytes.
+pub fn parse(data: &[u8]) -> Result<Vec<Opcode>> {
+    let mut r = Reader { data, at: 0 };
+    let count = r.u32()?;
+    // Each opcode has a 16-byte header at least.
+    let count = r.room_for(u64::from(count), 16, "opcodes")?;
+    let mut list = Vec::with_capacity(count);
+    for _ in 0..count {
+        let id = r.u32()?;
+        let _version: [u8; 4] = r.take()?;
+        let flags = r.u32()?;
+        let size = r.u32()?;
+        let size = r.room_for(u64::from(size), 1, "opcode parameters")?;
+        let params = &data[r.at..r.at + size];
+        r.at += size;
+        let optional = flags & 1 != 0;
+        list.push(parse_one(id, optional, params)?);
+    }
+    Ok(list)
+}
+
+/// An opcode list's bytes (big-endian), for the writer and the tests.
+pub fn encode(list: &[Opcode]) -> Vec<u8> {
+    let mut out = (list.len() as u32).to_be_bytes().to_vec();
+    for op in list {
+        let mut p = Vec::new();
+        let u = |p: &mut Vec<u8>, v: u32| p.extend_from_slice(&v.to_be_bytes());
+        let d = |p: &mut Vec<u8>, v: f64| p.extend_from_slice(&v.to_be_bytes());
+        let (id, optional) = match op {
+            Opcode::WarpRectilinear { planes, centre } => {
+                u(&mut p, planes.len() as u32);
+                for k in planes {
+                    k.iter().for_each(|v| d(&mut p, *v));
+                }
+                centre.iter().for_each(|v| d(&mut p, *v));
+                (1, false)
+            }
+            Opcode::FixBadPixelsConstant {
+                constant,
+                bayer_phase,
+            } => {
+                u(&mut p, *constant);
+                u(&mut p, *bayer_phase);
+                (4, false)
+            }
+            Opcode::FixBadPixelsList {
+                bayer_phase,
+                points,
+                rects,
+            } => {
+                u(&mut p, *bayer_phase);
+                u(&mut p, points.len() as u32);
+                u(&mut p, rects.len() as u32);
+                points.iter().flatten().for_each(|v| u(&mut p, *v));
+                rects.iter().flatten().for_each(|v| u(&mut p, *v));
+                (5, false)
+            }
+            Opcode::GainMap(g) => {
+                g.area.iter().for_each(|v| u(&mut p, *v));
+                for v in [g.plane, g.planes, g.row_pitch, g.col_pitch] {
+                    u(&mut p, v);
+                }
+                g.points.iter().for_each(|v| u(&mut p, *v));
+                g.spacing
+                    .iter()
+                    .chain(&g.origin)
+                    .for_each(|v| d(&mut p, *v));
+                u(&mut p, g.map_planes);
+                g.gains
+                    .iter()
+                    .for_each(|v| p.extend_from_slice(&v.to_be_bytes()));
+                (9, false)
+            }
+            Opcode::Other { id, optional } => (*id, *optional),
+        };
+        out.extend_from_slice(&id.to_be_bytes());
+        out.extend_from_slice(&[1, 3, 0, 0]);
+        out.extend_from_slice(&u32::from(optional).to_be_bytes());
+        out.extend_from_slice(&(p.len() as u32).to_be_bytes());
+        out.extend_from_slice(&p);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn every_kind() -> Vec<Opcode> {
+        vec![
+            Opcode::GainMap(GainMap {
+                area: [0, 1, 100, 200],
+                plane: 0,
+                planes: 1,
+                row_pitch: 2,
+                col_pitch: 2,
+                points: [3, 4],
+                spacing: [0.5, 1.0 / 3.0],
+                origin: [0.0, 0.0],
+                map_planes: 1,
+                gains: (0..12).map(|i| 1.0 + i as f32 / 10.0).collect(),
+            }),
+            Opcode::FixBadPixelsConstant {
+                constant: 0,
+                bayer_phase: 1,
+            },
+            Opcode::FixBadPixelsList {
+                bayer_phase: 0,
+                points: vec![[5, 7], [9, 11]],
+                rects: vec![[1, 2, 3, 4]],
+            },
+            Opcode::WarpRectilinear {
+                planes: vec![[1.0, -0.02, 0.001, 0.0, 0.0001, -0.0002]],
+                centre: [0.5, 0.5],
+            },
+            Opcode::Other {
+                id: 7,
+                optional: true,
+            },
+        ]
+    }
+
+    #[test]
+    fn every_kind_round_trips_and_is_named() {
+        let list = every_kind();
+        assert_eq!(parse(&encode(&list)).unwrap(), list);
+        let names: Vec<&str> = list.iter().map(Opcode::name).collect();
+        assert_eq!(
+            names,
+            [
+                "GainMap",
+                "FixBadPixelsConstant",
+                "FixBadPixelsList",
+                "WarpRectilinear",
+                "MapTable"
+            ]
+        );
+    }
+
+    #[test]
+    fn truncated_and_oversized_lists_are_errors_not_allocations() {
+        let bytes = encode(&every_kind());
+        for n in 0..bytes.len() {
+            assert!(parse(&bytes[..n]).is_err(), "{n}");
+        }
+        // A count of four billion opcodes in eight bytes.
+        assert!(parse(&[0xff, 0xff, 0xff, 0xff, 0, 0, 0, 0]).is_err());
+        // A GainMap claiming 2^32 x 2^32 points.
+        let mut gain_map = encode(&every_kind()[..1]);
+        let points_at = 4 + 16 + 4 * 8;
+        gain_map[points_at..points_at + 8].fill(0xff);
+        assert!(parse(&gain_map).is_err());
+    }
+}
