@@ -109,7 +109,8 @@ pub struct RawInput {
     pub framing: Framing,
     /// The file's BaselineExposure in EV, applied as gain unless turned off.
     pub baseline_exposure: Option<f64>,
-    /// The opcodes the file lists, by name and whether optional, none of which is applied yet.
+    /// The opcodes the file lists that are not applied yet (all but the bad-pixel ones, which
+    /// become the static defect map), by name and whether optional.
     pub opcodes_not_applied: Vec<(&'static str, bool)>,
 }
 
@@ -144,6 +145,9 @@ impl RawInput {
             black_level: Some(image.black_level.to_vec()),
             white_level: Some(image.white_level),
             white_balance: dng.colour.as_shot_gains().map(WhiteBalance::Gains),
+            // FixBadPixelsConstant/List, resolved by the reader into a defect map.
+            defects: (!dng.processing.bad_pixels.is_empty())
+                .then(|| dng.processing.bad_pixels.clone()),
             ..IspOptions::default()
         };
         Ok(Self {
@@ -158,6 +162,12 @@ impl RawInput {
                 .opcode_lists
                 .iter()
                 .flatten()
+                .filter(|op| {
+                    !matches!(
+                        op,
+                        Opcode::FixBadPixelsConstant { .. } | Opcode::FixBadPixelsList { .. }
+                    )
+                })
                 .map(|op| {
                     let optional = matches!(op, Opcode::Other { optional: true, .. });
                     (op.name(), optional)

@@ -491,3 +491,62 @@ fn bench_dng_reports_its_decode_time_as_json() {
     ]);
     assert!(!ok && stderr.contains("--repeats"), "{stderr}");
 }
+
+/// A DNG's FixBadPixelsList becomes the defect map (the listed hot pixel is corrected), and an
+/// opcode the pipeline does not apply yet is named on stderr, not dropped silently.
+#[test]
+fn isp_corrects_the_bad_pixels_a_dng_lists_and_notes_opcodes_it_leaves_out() {
+    use raw_formats::dng::opcodes::Opcode;
+    use raw_formats::dng::{Dng, DngColour, Processing};
+    let dir = std::env::temp_dir().join(format!("camsim-isp-opcodes-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (w, h) = (32, 24);
+    let mut samples = vec![1000u16; w * h];
+    samples[10 * w + 12] = 4095; // a hot red pixel (RGGB: even row, even column)
+    let image =
+        raw_formats::RawImage::new(w, h, isp_core::CfaPattern::Rggb, 12, [0; 4], 4095, samples)
+            .unwrap();
+    let develop = |lists: [Vec<Opcode>; 3], name: &str| {
+        let dng = Dng {
+            image: image.clone(),
+            camera_model: "opcode test".into(),
+            colour: DngColour::default(),
+            framing: Default::default(),
+            processing: Processing {
+                opcode_lists: lists,
+                ..Processing::default()
+            },
+        };
+        let input = dir.join(format!("{name}.dng"));
+        dng.write(&input).unwrap();
+        let output = dir.join(format!("{name}.png"));
+        let (ok, stdout, stderr) = camsim(&[
+            "isp",
+            "--input",
+            input.to_str().unwrap(),
+            "--output",
+            output.to_str().unwrap(),
+        ]);
+        assert!(ok, "{stderr}");
+        let rgb = imageio::read(&output).unwrap();
+        (rgb.data[(10 * w + 12) * 3], stdout, stderr)
+    };
+    let listed = Opcode::FixBadPixelsList {
+        bayer_phase: 0,
+        points: vec![[10, 12]],
+        rects: vec![],
+    };
+    let other = Opcode::Other {
+        id: 8,
+        optional: true,
+    };
+    let (hot, _, _) = develop(Default::default(), "plain");
+    let (fixed, stdout, stderr) = develop([vec![listed], vec![other], vec![]], "listed");
+    assert!(hot > 200 && fixed < 150, "hot {hot}, corrected {fixed}");
+    assert!(stdout.contains("defective pixels"), "{stdout}");
+    assert!(
+        stderr.contains("MapPolynomial opcode (optional) is not applied"),
+        "{stderr}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

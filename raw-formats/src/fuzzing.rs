@@ -216,6 +216,7 @@ pub fn seed_corpus() -> Vec<(&'static str, String, Vec<u8>)> {
     with_opcodes.processing = Processing {
         baseline_exposure: Some(0.25),
         opcode_lists: lists.clone(),
+        ..Processing::default()
     };
     let bytes = with_opcodes
         .encode_with(&EncodeOptions::default())

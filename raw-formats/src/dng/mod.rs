@@ -257,6 +257,11 @@ pub struct Processing {
     /// OpcodeList1 (applied to the raw as stored), OpcodeList2 (after linearisation, before
     /// demosaicing) and OpcodeList3 (after demosaicing), from the raw IFD.
     pub opcode_lists: [Vec<opcodes::Opcode>; 3],
+    /// The defective pixels FixBadPixelsConstant and FixBadPixelsList name, in the image's
+    /// coordinates (inside the active area), sorted by row then column without duplicates:
+    /// the static defect map for isp-core's defect correction. Found by the reader, which
+    /// holds the samples at the stage each list applies to.
+    pub bad_pixels: Vec<isp_core::dpc::Defect>,
 }
 
 /// How the file says its image is framed, for the developer to apply to its output.
@@ -669,6 +674,7 @@ mod tests {
                 }],
                 vec![],
             ],
+            bad_pixels: Vec::new(),
         };
         for little_endian in [true, false] {
             let options = EncodeOptions {
@@ -676,8 +682,72 @@ mod tests {
                 ..EncodeOptions::default()
             };
             let back = Dng::decode(&d.encode_with(&options).unwrap()).unwrap();
-            assert_eq!(back.processing, d.processing);
+            assert_eq!(back.processing.opcode_lists, d.processing.opcode_lists);
+            assert_eq!(
+                back.processing.baseline_exposure,
+                d.processing.baseline_exposure
+            );
+            // The listed pixel, row 1 column 2, is the defect map.
+            let defect = isp_core::dpc::Defect { y: 1, x: 2 };
+            assert_eq!(back.processing.bad_pixels, [defect]);
         }
+    }
+
+    /// FixBadPixelsConstant and FixBadPixelsList name pixels in stored coordinates in
+    /// OpcodeList1 (moved into the active area) and in active-area coordinates in
+    /// OpcodeList2, where a constant compares on the 0..65535 scale of black to white.
+    #[test]
+    fn bad_pixel_opcodes_become_the_defect_map() {
+        use isp_core::dpc::Defect;
+        use opcodes::Opcode;
+        let mut d = sample(); // 5 x 3, black 10..13, white 4095
+        d.image.black_level = [0; 4];
+        d.image.samples = vec![100; 15];
+        d.image.samples[7] = 0; // (2, 1)
+        d.image.samples[14] = 4095; // (4, 2): white, 65535 on the stage-2 scale
+        d.processing.opcode_lists = [
+            vec![
+                Opcode::FixBadPixelsConstant {
+                    constant: 0,
+                    bayer_phase: 0,
+                },
+                Opcode::FixBadPixelsList {
+                    bayer_phase: 0,
+                    points: vec![[0, 0], [2, 9]], // the second is outside: dropped
+                    rects: vec![],
+                },
+            ],
+            vec![
+                Opcode::FixBadPixelsConstant {
+                    constant: 65535,
+                    bayer_phase: 0,
+                },
+                Opcode::FixBadPixelsList {
+                    bayer_phase: 0,
+                    points: vec![],
+                    rects: vec![[0, 3, 2, 9]], // clipped to columns 3..5, rows 0..2
+                },
+            ],
+            vec![],
+        ];
+        let back = Dng::decode(&d.encode().unwrap()).unwrap();
+        let mut expected: Vec<Defect> = [(0, 0), (2, 1), (4, 2), (3, 0), (4, 0), (3, 1), (4, 1)]
+            .iter()
+            .map(|&(x, y)| Defect { x, y })
+            .collect();
+        expected.sort();
+        assert_eq!(back.processing.bad_pixels, expected);
+        // With an active area starting at column 1, OpcodeList1's stored (0, 0) falls
+        // outside it and its (2, 1) moves to (1, 1).
+        let bytes = d
+            .encode_with_entries(
+                &EncodeOptions::default(),
+                vec![write::long(ACTIVE_AREA, &[0, 1, 3, 5])],
+            )
+            .unwrap();
+        let back = Dng::decode(&bytes).unwrap();
+        assert!(back.processing.bad_pixels.contains(&Defect { x: 1, y: 1 }));
+        assert!(!back.processing.bad_pixels.contains(&Defect { x: 0, y: 0 }));
     }
 
     #[test]

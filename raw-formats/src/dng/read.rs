@@ -253,6 +253,12 @@ impl Tiff<'_> {
             }
         }
 
+        // OpcodeList1 applies to the samples as stored (DNG 1.4, chapter 7): its bad pixels are
+        // found now, in stored coordinates.
+        let lists = self.opcode_lists(ifd)?;
+        let mut bad_stored = Vec::new();
+        bad_pixels_of(&lists[0], &raw, width, height, |v| v, &mut bad_stored);
+
         // LinearizationTable maps stored codes to linear values (the last entry for codes
         // past its end, as the DNG SDK does).
         let mut max_code = ((1u32 << bits) - 1) as f64;
@@ -272,6 +278,7 @@ impl Tiff<'_> {
             max_code = 65535.0;
         }
 
+        let (stored_width, stored_height) = (width, height);
         let (width, height, mut raw) = match ifd.get(ACTIVE_AREA) {
             Some(e) => {
                 let area = self.values(e)?;
@@ -279,6 +286,15 @@ impl Tiff<'_> {
             }
             None => (width, height, raw),
         };
+        // The active area's corner, to move the stored coordinates of OpcodeList1 into it.
+        let (left, top) = match ifd.get(ACTIVE_AREA) {
+            Some(e) => {
+                let area = self.values(e)?;
+                (area[1] as usize, area[0] as usize)
+            }
+            None => (0, 0),
+        };
+        debug_assert!(left + width <= stored_width && top + height <= stored_height);
 
         let white = self.first(ifd, WHITE_LEVEL)?.unwrap_or(max_code);
         let level = |v: f64, field: &'static str| -> Result<u16> {
@@ -306,17 +322,40 @@ impl Tiff<'_> {
             raw,
         )?;
         let framing = self.framing(ifd, ifd0, width, height)?;
-        let mut processing = Processing {
+        // OpcodeLists 2 and 3 apply in the active area, to samples scaled so black is 0 and
+        // white 65535 (the DNG SDK's stage 2): a FixBadPixelsConstant there compares on that
+        // scale.
+        let mut bad = Vec::new();
+        for [x, y] in bad_stored {
+            if (left..left + width).contains(&x) && (top..top + height).contains(&y) {
+                bad.push([x - left, y - top]);
+            }
+        }
+        let span = (f64::from(white_level) - f64::from(black_level[0])).max(1.0);
+        let scaled = |v: u16| {
+            ((f64::from(v) - f64::from(black_level[0])) * 65535.0 / span)
+                .round()
+                .clamp(0.0, 65535.0) as u16
+        };
+        for list in &lists[1..] {
+            bad_pixels_of(list, &image.samples, width, height, scaled, &mut bad);
+        }
+        let mut bad_pixels: Vec<isp_core::dpc::Defect> = bad
+            .into_iter()
+            .map(|[x, y]| isp_core::dpc::Defect {
+                x: x as u16,
+                y: y as u16,
+            })
+            .collect();
+        bad_pixels.sort_unstable();
+        bad_pixels.dedup();
+        let processing = Processing {
             baseline_exposure: self
                 .first(ifd0, BASELINE_EXPOSURE)?
                 .filter(|v| v.is_finite()),
-            ..Processing::default()
+            opcode_lists: lists,
+            bad_pixels,
         };
-        for (list, tag) in processing.opcode_lists.iter_mut().zip(OPCODE_LISTS) {
-            if let Some(e) = ifd.get(tag) {
-                *list = opcodes::parse(self.raw_bytes(e)?)?;
-            }
-        }
         let colour = self.colour(ifd0)?;
         let camera_model = self
             .text(ifd0, UNIQUE_CAMERA_MODEL)
@@ -329,6 +368,17 @@ impl Tiff<'_> {
             framing,
             processing,
         })
+    }
+
+    /// OpcodeList1, 2 and 3 of the raw IFD (empty where absent).
+    fn opcode_lists(&self, ifd: &Ifd) -> Result<[Vec<opcodes::Opcode>; 3]> {
+        let mut lists: [Vec<opcodes::Opcode>; 3] = Default::default();
+        for (list, tag) in lists.iter_mut().zip(OPCODE_LISTS) {
+            if let Some(e) = ifd.get(tag) {
+                *list = opcodes::parse(self.raw_bytes(e)?)?;
+            }
+        }
+        Ok(lists)
     }
 
     fn cfa_pattern(&self, ifd: &Ifd) -> Result<CfaPattern> {
@@ -567,6 +617,48 @@ impl Tiff<'_> {
             analog_balance: triple(ANALOG_BALANCE, "AnalogBalance")?,
             as_shot_neutral: triple(AS_SHOT_NEUTRAL, "AsShotNeutral")?,
         })
+    }
+}
+
+/// Appends the pixels (column, row) that `list`'s FixBadPixelsConstant (a sample equal to the
+/// constant, on the scale `scale` gives) and FixBadPixelsList (points, and rectangles clipped to
+/// the image) name in a `width` x `height` image.
+fn bad_pixels_of(
+    list: &[opcodes::Opcode],
+    raw: &[u16],
+    width: usize,
+    height: usize,
+    scale: impl Fn(u16) -> u16,
+    out: &mut Vec<[usize; 2]>,
+) {
+    for op in list {
+        match op {
+            opcodes::Opcode::FixBadPixelsConstant { constant, .. } => {
+                for (i, v) in raw.iter().enumerate() {
+                    if u32::from(scale(*v)) == *constant {
+                        out.push([i % width, i / width]);
+                    }
+                }
+            }
+            opcodes::Opcode::FixBadPixelsList { points, rects, .. } => {
+                for [row, col] in points {
+                    let (x, y) = (*col as usize, *row as usize);
+                    if x < width && y < height {
+                        out.push([x, y]);
+                    }
+                }
+                for [top, left, bottom, right] in rects {
+                    let (bottom, right) =
+                        ((*bottom as usize).min(height), (*right as usize).min(width));
+                    for y in *top as usize..bottom {
+                        for x in *left as usize..right {
+                            out.push([x, y]);
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
     }
 }
 
