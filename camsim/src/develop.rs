@@ -27,7 +27,7 @@ use raw_formats::framing::Orientation;
 use raw_formats::{FormatError, Image, RawImage};
 
 use crate::error::Error;
-use crate::isp_options::{CropChoice, IspOptions, WhiteBalance};
+use crate::isp_options::{CropChoice, IspOptions, ShadingGrid, WhiteBalance};
 
 /// What a run did, for the printed report.
 #[derive(Debug, Clone)]
@@ -148,6 +148,7 @@ impl RawInput {
             // FixBadPixelsConstant/List, resolved by the reader into a defect map.
             defects: (!dng.processing.bad_pixels.is_empty())
                 .then(|| dng.processing.bad_pixels.clone()),
+            lsc: gain_map_shading(&dng),
             ..IspOptions::default()
         };
         Ok(Self {
@@ -161,13 +162,17 @@ impl RawInput {
                 .processing
                 .opcode_lists
                 .iter()
-                .flatten()
-                .filter(|op| {
-                    !matches!(
+                .enumerate()
+                .flat_map(|(i, list)| list.iter().map(move |op| (i, op)))
+                .filter(|(list, op)| {
+                    let bad_pixels = matches!(
                         op,
                         Opcode::FixBadPixelsConstant { .. } | Opcode::FixBadPixelsList { .. }
-                    )
+                    );
+                    let shading = *list == 1 && matches!(op, Opcode::GainMap(g) if g.plane == 0);
+                    !(bad_pixels || shading)
                 })
+                .map(|(_, op)| op)
                 .map(|op| {
                     let optional = matches!(op, Opcode::Other { optional: true, .. });
                     (op.name(), optional)
@@ -175,6 +180,27 @@ impl RawInput {
                 .collect(),
         })
     }
+}
+
+/// Nodes on each side of the lens-shading grid made from a DNG's GainMaps: dense enough that
+/// bilinear interpolation between nodes follows a smooth vignetting map to well under 1 %.
+const GAIN_MAP_GRID: usize = 33;
+
+/// OpcodeList2's GainMaps (the lens shading a phone or converter measured) as the pipeline's
+/// lens-shading grid, in Q4.12.
+fn gain_map_shading(dng: &Dng) -> Option<ShadingGrid> {
+    let (w, h) = (dng.image.width, dng.image.height);
+    let n = GAIN_MAP_GRID;
+    let gains =
+        raw_formats::dng::opcodes::shading_grid(&dng.processing.opcode_lists[1], w, h, n, n)?;
+    Some(ShadingGrid {
+        width: n,
+        height: n,
+        gains_q12: gains
+            .iter()
+            .map(|g| (f64::from(*g) * 4096.0).round().clamp(0.0, 65535.0) as u16)
+            .collect(),
+    })
 }
 
 /// Develops `input` with `options` (each unset option from the file's defaults, then the

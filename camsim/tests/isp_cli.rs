@@ -550,3 +550,100 @@ fn isp_corrects_the_bad_pixels_a_dng_lists_and_notes_opcodes_it_leaves_out() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A DNG's GainMaps (OpcodeList2, one per CFA position, as phones write them) drive the
+/// lens-shading stage: a flat field darkened towards the corners by the inverse of the map
+/// develops flat, and without the map it does not.
+#[test]
+fn isp_applies_a_dngs_gain_maps_as_lens_shading() {
+    use raw_formats::dng::opcodes::{GainMap, Opcode};
+    use raw_formats::dng::{Dng, DngColour, Processing};
+    let dir = std::env::temp_dir().join(format!("camsim-isp-gainmap-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (w, h) = (96, 64);
+    // Gain 1 at the centre rising to 2 at the corners, on a 5 x 7 map over the image.
+    let (rows, cols) = (5u32, 7u32);
+    let vignette = |u: f64, v: f64| 1.0 + ((u - 0.5).powi(2) + (v - 0.5).powi(2)) * 2.0;
+    let gains: Vec<f32> = (0..rows * cols)
+        .map(|i| {
+            let (r, c) = (f64::from(i / cols), f64::from(i % cols));
+            vignette(c / f64::from(cols - 1), r / f64::from(rows - 1)) as f32
+        })
+        .collect();
+    let map = |top: u32, left: u32| {
+        Opcode::GainMap(GainMap {
+            area: [top, left, h as u32, w as u32],
+            plane: 0,
+            planes: 1,
+            row_pitch: 2,
+            col_pitch: 2,
+            points: [rows, cols],
+            spacing: [1.0 / f64::from(rows - 1), 1.0 / f64::from(cols - 1)],
+            origin: [0.0, 0.0],
+            map_planes: 1,
+            gains: gains.clone(),
+        })
+    };
+    let maps = vec![map(0, 0), map(0, 1), map(1, 0), map(1, 1)];
+    let samples: Vec<u16> = (0..w * h)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            // The map of this pixel's CFA position, evaluated at the pixel.
+            let Opcode::GainMap(own) = &maps[(y % 2) * 2 + x % 2] else {
+                unreachable!()
+            };
+            let g = own.gain_at(x, y, w, h).unwrap();
+            (2000.0 / g).round() as u16
+        })
+        .collect();
+    let image =
+        raw_formats::RawImage::new(w, h, isp_core::CfaPattern::Rggb, 12, [0; 4], 4095, samples)
+            .unwrap();
+    let spread = |lists: [Vec<Opcode>; 3], name: &str| {
+        let dng = Dng {
+            image: image.clone(),
+            camera_model: "gain map test".into(),
+            colour: DngColour::default(),
+            framing: Default::default(),
+            processing: Processing {
+                opcode_lists: lists,
+                ..Processing::default()
+            },
+        };
+        let input = dir.join(format!("{name}.dng"));
+        dng.write(&input).unwrap();
+        let output = dir.join(format!("{name}.png"));
+        let (ok, stdout, stderr) = camsim(&[
+            "isp",
+            "--input",
+            input.to_str().unwrap(),
+            "--output",
+            output.to_str().unwrap(),
+        ]);
+        assert!(ok, "{stderr}");
+        assert!(!stderr.contains("GainMap"), "{stderr}");
+        let rgb = imageio::read(&output).unwrap();
+        // Green, two pixels in from every edge (demosaicing borders aside).
+        let mut greens: Vec<f64> = (2..h - 2)
+            .flat_map(|y| (2..w - 2).map(move |x| (x, y)))
+            .map(|(x, y)| f64::from(rgb.data[(y * w + x) * 3 + 1]))
+            .collect();
+        // The 1st to 99th percentile: the grid's bilinear nodes meet the map's own bilinear
+        // patches at a few pixels that land one or two codes further out.
+        greens.sort_by(f64::total_cmp);
+        let n = greens.len();
+        (greens[n * 99 / 100] - greens[n / 100], stdout)
+    };
+    let (shaded, _) = spread(Default::default(), "shaded");
+    let (corrected, stdout) = spread([vec![], maps, vec![]], "corrected");
+    assert!(stdout.contains("lens shading"), "{stdout}");
+    assert!(
+        shaded > 40.0,
+        "the uncorrected vignette spans {shaded} codes"
+    );
+    assert!(
+        corrected <= 3.0,
+        "the corrected image still spans {corrected} codes (1st to 99th percentile)"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -101,6 +101,100 @@ impl Opcode {
     }
 }
 
+impl GainMap {
+    /// The map's gain at a pixel `(x, y)` of a `width` x `height` image, bilinear between map
+    /// points and held at the map's edges; `None` where the map does not apply (outside its
+    /// area, or off its row and column pitch). Pixel centres sit at `(x + 0.5) / width` on
+    /// the map's 0..1 scale, as the DNG SDK places them.
+    pub fn gain_at(&self, x: usize, y: usize, width: usize, height: usize) -> Option<f32> {
+        if !self.covers(x, y) {
+            return None;
+        }
+        let u = (x as f64 + 0.5) / width.max(1) as f64;
+        let v = (y as f64 + 0.5) / height.max(1) as f64;
+        Some(self.gain_at_fraction(u, v))
+    }
+
+    /// Whether the map applies to pixel `(x, y)`: inside its area and on its pitch.
+    pub fn covers(&self, x: usize, y: usize) -> bool {
+        let [top, left, bottom, right] = self.area.map(|v| v as usize);
+        (top..bottom).contains(&y)
+            && (left..right).contains(&x)
+            && (y - top).is_multiple_of(self.row_pitch as usize)
+            && (x - left).is_multiple_of(self.col_pitch as usize)
+    }
+
+    /// The map's gain at `(u, v)` on its 0..1 scale of the image's width and height: bilinear
+    /// between map points, held at the map's edges.
+    pub fn gain_at_fraction(&self, u: f64, v: f64) -> f32 {
+        let position = |p: f64, axis: usize| {
+            let t = (p - self.origin[axis]) / self.spacing[axis].max(f64::MIN_POSITIVE);
+            let last = (self.points[axis] - 1) as f64;
+            let t = t.clamp(0.0, last);
+            let i = (t.floor() as usize).min(self.points[axis].saturating_sub(2) as usize);
+            (i, (t - i as f64) as f32)
+        };
+        let (row, fy) = position(v, 0);
+        let (col, fx) = position(u, 1);
+        let (rows, cols) = (self.points[0] as usize, self.points[1] as usize);
+        let planes = self.map_planes as usize;
+        let at =
+            |r: usize, c: usize| self.gains[(r.min(rows - 1) * cols + c.min(cols - 1)) * planes];
+        let top_gain = at(row, col) * (1.0 - fx) + at(row, col + 1) * fx;
+        let bottom_gain = at(row + 1, col) * (1.0 - fx) + at(row + 1, col + 1) * fx;
+        top_gain * (1.0 - fy) + bottom_gain * fy
+    }
+}
+
+/// The GainMaps of `list` as a lens-shading grid for isp-core: `grid_w` x `grid_h` nodes over
+/// a `width` x `height` CFA image, four gains per node (one per 2x2 CFA position, row by row:
+/// the product of every map that applies to that position there, 1 where none does), or
+/// `None` if the list has no GainMap. Maps for other planes than the first are left out (a
+/// CFA image has one plane).
+pub fn shading_grid(
+    list: &[Opcode],
+    width: usize,
+    height: usize,
+    grid_w: usize,
+    grid_h: usize,
+) -> Option<Vec<f32>> {
+    let maps: Vec<&GainMap> = list
+        .iter()
+        .filter_map(|op| match op {
+            Opcode::GainMap(g) if g.plane == 0 => Some(g),
+            _ => None,
+        })
+        .collect();
+    if maps.is_empty() || grid_w < 2 || grid_h < 2 || width < 2 || height < 2 {
+        return None;
+    }
+    let mut grid = Vec::with_capacity(grid_w * grid_h * 4);
+    for gy in 0..grid_h {
+        // The node sits on pixel row gy (h - 1) / (grid_h - 1), fractional, as isp-core's grid
+        // places it: the maps are evaluated exactly there.
+        let py = (gy * (height - 1)) as f64 / (grid_h - 1) as f64;
+        for gx in 0..grid_w {
+            let px = (gx * (width - 1)) as f64 / (grid_w - 1) as f64;
+            let (u, v) = ((px + 0.5) / width as f64, (py + 0.5) / height as f64);
+            for p in 0..4 {
+                // Whether a map applies to this CFA position is read at the pixel of that
+                // position nearest the node.
+                let near = |c: f64, phase: usize, n: usize| {
+                    (((c / 2.0).round() as usize) * 2 + phase).min(n - 1 - (n - 1 + phase) % 2)
+                };
+                let (x, y) = (near(px, p % 2, width), near(py, p / 2, height));
+                let gain: f32 = maps
+                    .iter()
+                    .filter(|m| m.covers(x, y))
+                    .map(|m| m.gain_at_fraction(u, v))
+                    .product();
+                grid.push(gain);
+            }
+        }
+    }
+    Some(grid)
+}
+
 /// Big-endian reads over one opcode's parameters, every read checked.
 struct Reader<'a> {
     data: &'a [u8],
