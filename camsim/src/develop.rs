@@ -137,6 +137,27 @@ impl RawInput {
             return Ok(Self::plain(raw_formats::image::read_mosaic(path)?));
         }
         let dng = Dng::read(path)?;
+        // An opcode this pipeline does not know, that the file does not let a reader skip.
+        let required_unknown =
+            dng.processing
+                .opcode_lists
+                .iter()
+                .flatten()
+                .find_map(|op| match op {
+                    Opcode::Other {
+                        id,
+                        optional: false,
+                    } => Some(format!("{} (id {id})", op.name())),
+                    _ => None,
+                });
+        if let Some(value) = required_unknown {
+            return Err(FormatError::Unsupported {
+                field: "DNG opcode not marked optional",
+                value,
+                supported: "GainMap, FixBadPixelsConstant, FixBadPixelsList and WarpRectilinear are known; optional ones are skipped with a note",
+            }
+            .in_file(path));
+        }
         let calibration = dng.colour.to_calibration().map_err(|e| e.in_file(path))?;
         let image = &dng.image;
         let defaults = IspOptions {

@@ -548,6 +548,32 @@ fn isp_corrects_the_bad_pixels_a_dng_lists_and_notes_opcodes_it_leaves_out() {
         stderr.contains("MapPolynomial opcode (optional) is not applied"),
         "{stderr}"
     );
+    // The same opcode not marked optional is refused by name.
+    let required = Opcode::Other {
+        id: 8,
+        optional: false,
+    };
+    let dng = Dng {
+        image: image.clone(),
+        camera_model: "opcode test".into(),
+        colour: DngColour::default(),
+        framing: Default::default(),
+        processing: Processing {
+            opcode_lists: [vec![], vec![required], vec![]],
+            ..Processing::default()
+        },
+    };
+    let input = dir.join("required.dng");
+    dng.write(&input).unwrap();
+    let (ok, _, stderr) = camsim(&[
+        "isp",
+        "--input",
+        input.to_str().unwrap(),
+        "--output",
+        dir.join("required.png").to_str().unwrap(),
+    ]);
+    assert!(!ok, "an opcode that may not be skipped was skipped");
+    assert!(stderr.contains("MapPolynomial (id 8)"), "{stderr}");
     std::fs::remove_dir_all(&dir).ok();
 }
 
