@@ -159,6 +159,11 @@ impl RawInput {
             .in_file(path));
         }
         let calibration = dng.colour.to_calibration().map_err(|e| e.in_file(path))?;
+        // OpcodeList3's WarpRectilinear, where OpenCV's model (the pipeline's) expresses it.
+        let (w, h) = (dng.image.width, dng.image.height);
+        let warp = dng.processing.opcode_lists[2]
+            .iter()
+            .find_map(|op| raw_formats::dng::opcodes::warp_as_opencv(op, w, h));
         let image = &dng.image;
         let defaults = IspOptions {
             pattern: Some(image.pattern),
@@ -170,6 +175,8 @@ impl RawInput {
             defects: (!dng.processing.bad_pixels.is_empty())
                 .then(|| dng.processing.bad_pixels.clone()),
             lsc: gain_map_shading(&dng),
+            distortion: warp.map(|(k, _)| k),
+            camera_matrix: warp.map(|(_, m)| m),
             ..IspOptions::default()
         };
         Ok(Self {
@@ -191,7 +198,10 @@ impl RawInput {
                         Opcode::FixBadPixelsConstant { .. } | Opcode::FixBadPixelsList { .. }
                     );
                     let shading = *list == 1 && matches!(op, Opcode::GainMap(g) if g.plane == 0);
-                    !(bad_pixels || shading)
+                    let applied_warp = *list == 2
+                        && warp.is_some()
+                        && matches!(op, Opcode::WarpRectilinear { .. });
+                    !(bad_pixels || shading || applied_warp)
                 })
                 .map(|(_, op)| op)
                 .map(|op| {

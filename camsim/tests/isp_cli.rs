@@ -673,3 +673,74 @@ fn isp_applies_a_dngs_gain_maps_as_lens_shading() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// OpcodeList3's WarpRectilinear drives the distortion-correction stage: developing a DNG that
+/// carries it gives exactly the image the same DNG without it gives with the equivalent
+/// `--distortion` and `--camera-matrix` (OpenCV's model, f the centre-to-corner distance).
+#[test]
+fn isp_corrects_the_distortion_a_dngs_warp_rectilinear_states() {
+    use raw_formats::dng::opcodes::{warp_as_opencv, Opcode};
+    use raw_formats::dng::{Dng, DngColour, Processing};
+    let dir = std::env::temp_dir().join(format!("camsim-isp-warp-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (w, h) = (64, 48);
+    // A grid of bright lines, so a warp moves edges.
+    let samples: Vec<u16> = (0..w * h)
+        .map(|i| {
+            if (i % w) % 8 < 2 || (i / w) % 8 < 2 {
+                3500
+            } else {
+                300
+            }
+        })
+        .collect();
+    let image =
+        raw_formats::RawImage::new(w, h, isp_core::CfaPattern::Rggb, 12, [0; 4], 4095, samples)
+            .unwrap();
+    let warp = Opcode::WarpRectilinear {
+        planes: vec![[1.0, -0.12, 0.03, 0.0, 0.001, -0.002]],
+        centre: [0.5, 0.5],
+    };
+    let ([k1, k2, p1, p2, k3], [fx, fy, cx, cy]) = warp_as_opencv(&warp, w, h).unwrap();
+    let develop = |lists: [Vec<Opcode>; 3], name: &str, extra: &[String]| {
+        let dng = Dng {
+            image: image.clone(),
+            camera_model: "warp test".into(),
+            colour: DngColour::default(),
+            framing: Default::default(),
+            processing: Processing {
+                opcode_lists: lists,
+                ..Processing::default()
+            },
+        };
+        let input = dir.join(format!("{name}.dng"));
+        dng.write(&input).unwrap();
+        let output = dir.join(format!("{name}.png"));
+        let mut args = vec![
+            "isp".to_string(),
+            "--input".into(),
+            input.to_str().unwrap().into(),
+            "--output".into(),
+            output.to_str().unwrap().into(),
+        ];
+        args.extend(extra.iter().cloned());
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let (ok, stdout, stderr) = camsim(&args);
+        assert!(ok, "{stderr}");
+        assert!(!stderr.contains("WarpRectilinear"), "{stderr}");
+        (imageio::read(&output).unwrap().data, stdout)
+    };
+    let (plain, _) = develop(Default::default(), "plain", &[]);
+    let (from_opcode, stdout) = develop([vec![], vec![], vec![warp]], "opcode", &[]);
+    let flags = [
+        "--distortion".to_string(),
+        format!("{k1},{k2},{p1},{p2},{k3}"),
+        "--camera-matrix".into(),
+        format!("{fx},{fy},{cx},{cy}"),
+    ];
+    let (from_flags, _) = develop(Default::default(), "flags", &flags);
+    assert!(stdout.contains("distortion: k1 -0.12"), "{stdout}");
+    assert_eq!(from_opcode, from_flags);
+    assert_ne!(from_opcode, plain);
+    std::fs::remove_dir_all(&dir).ok();
+}

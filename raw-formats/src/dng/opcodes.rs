@@ -146,6 +146,36 @@ impl GainMap {
     }
 }
 
+/// A WarpRectilinear as OpenCV's distortion model, for a `width` x `height` image: the
+/// coefficients `[k1, k2, p1, p2, k3]` and the camera matrix `[fx, fy, cx, cy]` in pixels (of
+/// pixel indices, so pixel `i`'s centre is at `i`). The DNG warp maps an output pixel at offset
+/// `d` from the optical centre, in units of the largest centre-to-corner distance `m`, to the
+/// source offset `(kr0 + kr1 r^2 + kr2 r^4 + kr3 r^6) d` plus the tangential terms (DNG 1.4,
+/// opcode 1): OpenCV's model with `f = m`, `k = kr1..kr3`, `p1 = kt0`, `p2 = kt1`, when
+/// `kr0` is 1 (another `kr0` scales the image, which one camera matrix cannot) and every plane
+/// has the same warp (different ones correct lateral chromatic aberration, which the pipeline's
+/// one distortion stage does not). `None` otherwise, or for another opcode.
+pub fn warp_as_opencv(op: &Opcode, width: usize, height: usize) -> Option<([f64; 5], [f64; 4])> {
+    let Opcode::WarpRectilinear { planes, centre } = op else {
+        return None;
+    };
+    let k = planes.first()?;
+    if planes.iter().any(|p| p != k) || (k[0] - 1.0).abs() > 1e-9 {
+        return None;
+    }
+    // The centre on the continuous image plane (pixel i spans [i, i + 1)).
+    let (w, h) = (width as f64, height as f64);
+    let (cx, cy) = (centre[0] * w, centre[1] * h);
+    let m = [(0.0, 0.0), (w, 0.0), (0.0, h), (w, h)]
+        .iter()
+        .map(|(x, y)| (x - cx).hypot(y - cy))
+        .fold(0.0, f64::max);
+    if !(m.is_finite() && m > 0.0) {
+        return None;
+    }
+    Some(([k[1], k[2], k[4], k[5], k[3]], [m, m, cx - 0.5, cy - 0.5]))
+}
+
 /// The GainMaps of `list` as a lens-shading grid for isp-core: `grid_w` x `grid_h` nodes over
 /// a `width` x `height` CFA image, four gains per node (one per 2x2 CFA position, row by row:
 /// the product of every map that applies to that position there, 1 where none does), or
@@ -491,6 +521,59 @@ mod tests {
                 "MapTable"
             ]
         );
+    }
+
+    /// The OpenCV form of a WarpRectilinear maps every pixel where the DNG formula does.
+    #[test]
+    fn warp_rectilinear_maps_onto_opencvs_model() {
+        let k = [1.0, -0.08, 0.02, -0.004, 0.003, -0.002];
+        let centre = [0.52, 0.47];
+        let op = Opcode::WarpRectilinear {
+            planes: vec![k; 3],
+            centre,
+        };
+        let (w, h) = (120usize, 80usize);
+        let ([k1, k2, p1, p2, k3], [f, _, cx, cy]) = warp_as_opencv(&op, w, h).unwrap();
+        // The DNG formula, on the continuous plane.
+        let (ccx, ccy) = (centre[0] * w as f64, centre[1] * h as f64);
+        let m = [
+            (0.0, 0.0),
+            (w as f64, 0.0),
+            (0.0, h as f64),
+            (w as f64, h as f64),
+        ]
+        .iter()
+        .map(|(x, y)| (x - ccx).hypot(y - ccy))
+        .fold(0.0, f64::max);
+        for (x, y) in [(0usize, 0usize), (119, 79), (60, 40), (3, 70), (100, 5)] {
+            let (dx, dy) = ((x as f64 + 0.5 - ccx) / m, (y as f64 + 0.5 - ccy) / m);
+            let r2 = dx * dx + dy * dy;
+            let radial = k[0] + k[1] * r2 + k[2] * r2 * r2 + k[3] * r2 * r2 * r2;
+            let sx = ccx + m * (radial * dx + k[4] * 2.0 * dx * dy + k[5] * (r2 + 2.0 * dx * dx));
+            let sy = ccy + m * (radial * dy + k[5] * 2.0 * dx * dy + k[4] * (r2 + 2.0 * dy * dy));
+            // OpenCV's model on pixel indices.
+            let (ox, oy) = ((x as f64 - cx) / f, (y as f64 - cy) / f);
+            let q2 = ox * ox + oy * oy;
+            let g = 1.0 + k1 * q2 + k2 * q2 * q2 + k3 * q2 * q2 * q2;
+            let xd = ox * g + 2.0 * p1 * ox * oy + p2 * (q2 + 2.0 * ox * ox);
+            let yd = oy * g + p1 * (q2 + 2.0 * oy * oy) + 2.0 * p2 * ox * oy;
+            let (tx, ty) = (f * xd + cx + 0.5, f * yd + cy + 0.5);
+            assert!(
+                (tx - sx).abs() < 1e-9 && (ty - sy).abs() < 1e-9,
+                "({x}, {y})"
+            );
+        }
+        // A scale (kr0 != 1) or per-plane warps do not map.
+        let scaled = Opcode::WarpRectilinear {
+            planes: vec![[1.01, 0.0, 0.0, 0.0, 0.0, 0.0]],
+            centre,
+        };
+        assert!(warp_as_opencv(&scaled, w, h).is_none());
+        let lateral = Opcode::WarpRectilinear {
+            planes: vec![k, [1.0, -0.07, 0.02, -0.004, 0.003, -0.002]],
+            centre,
+        };
+        assert!(warp_as_opencv(&lateral, w, h).is_none());
     }
 
     #[test]
