@@ -109,8 +109,9 @@ pub struct RawInput {
     pub framing: Framing,
     /// The file's BaselineExposure in EV, applied as gain unless turned off.
     pub baseline_exposure: Option<f64>,
-    /// The opcodes the file lists that are not applied yet (all but the bad-pixel ones, which
-    /// become the static defect map), by name and whether optional.
+    /// The opcodes the file lists that the pipeline does not apply (all but the bad-pixel
+    /// lists, OpcodeList2's GainMaps and the first WarpRectilinear of OpcodeList3 that OpenCV's
+    /// model expresses), by name and whether optional.
     pub opcodes_not_applied: Vec<(&'static str, bool)>,
 }
 
@@ -161,9 +162,11 @@ impl RawInput {
         let calibration = dng.colour.to_calibration().map_err(|e| e.in_file(path))?;
         // OpcodeList3's WarpRectilinear, where OpenCV's model (the pipeline's) expresses it.
         let (w, h) = (dng.image.width, dng.image.height);
-        let warp = dng.processing.opcode_lists[2]
+        let as_opencv = |op| raw_formats::dng::opcodes::warp_as_opencv(op, w, h);
+        let warp_op = dng.processing.opcode_lists[2]
             .iter()
-            .find_map(|op| raw_formats::dng::opcodes::warp_as_opencv(op, w, h));
+            .find(|op| as_opencv(op).is_some());
+        let warp = warp_op.and_then(as_opencv);
         let image = &dng.image;
         let defaults = IspOptions {
             pattern: Some(image.pattern),
@@ -198,13 +201,10 @@ impl RawInput {
                         Opcode::FixBadPixelsConstant { .. } | Opcode::FixBadPixelsList { .. }
                     );
                     let shading = *list == 1 && matches!(op, Opcode::GainMap(g) if g.plane == 0);
-                    let applied_warp = *list == 2
-                        && warp.is_some()
-                        && matches!(op, Opcode::WarpRectilinear { .. });
+                    let applied_warp = warp_op.is_some_and(|applied| std::ptr::eq(applied, *op));
                     !(bad_pixels || shading || applied_warp)
                 })
-                .map(|(_, op)| op)
-                .map(|op| {
+                .map(|(_, op)| {
                     let optional = matches!(op, Opcode::Other { optional: true, .. });
                     (op.name(), optional)
                 })

@@ -492,12 +492,65 @@ fn bench_dng_reports_its_decode_time_as_json() {
     assert!(!ok && stderr.contains("--repeats"), "{stderr}");
 }
 
+/// What `camsim isp` made of a DNG with opcode lists.
+struct Developed {
+    ok: bool,
+    /// The output's samples (empty if the run failed).
+    rgb: Vec<u16>,
+    stdout: String,
+    stderr: String,
+}
+
+/// Writes `image` with opcode `lists` as `dir/NAME.dng` and develops it to `dir/NAME.png`
+/// with `extra` flags.
+fn develop_with_opcodes(
+    dir: &std::path::Path,
+    image: &raw_formats::RawImage,
+    lists: [Vec<raw_formats::dng::opcodes::Opcode>; 3],
+    name: &str,
+    extra: &[&str],
+) -> Developed {
+    use raw_formats::dng::{Dng, DngColour, Processing};
+    let dng = Dng {
+        image: image.clone(),
+        camera_model: "opcode test".into(),
+        colour: DngColour::default(),
+        framing: Default::default(),
+        processing: Processing {
+            opcode_lists: lists,
+            ..Processing::default()
+        },
+    };
+    let input = dir.join(format!("{name}.dng"));
+    dng.write(&input).unwrap();
+    let output = dir.join(format!("{name}.png"));
+    let mut args = vec![
+        "isp",
+        "--input",
+        input.to_str().unwrap(),
+        "--output",
+        output.to_str().unwrap(),
+    ];
+    args.extend(extra);
+    let (ok, stdout, stderr) = camsim(&args);
+    let rgb = if ok {
+        imageio::read(&output).unwrap().data
+    } else {
+        Vec::new()
+    };
+    Developed {
+        ok,
+        rgb,
+        stdout,
+        stderr,
+    }
+}
+
 /// A DNG's FixBadPixelsList becomes the defect map (the listed hot pixel is corrected), and an
 /// opcode the pipeline does not apply yet is named on stderr, not dropped silently.
 #[test]
 fn isp_corrects_the_bad_pixels_a_dng_lists_and_notes_opcodes_it_leaves_out() {
     use raw_formats::dng::opcodes::Opcode;
-    use raw_formats::dng::{Dng, DngColour, Processing};
     let dir = std::env::temp_dir().join(format!("camsim-isp-opcodes-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let (w, h) = (32, 24);
@@ -506,31 +559,6 @@ fn isp_corrects_the_bad_pixels_a_dng_lists_and_notes_opcodes_it_leaves_out() {
     let image =
         raw_formats::RawImage::new(w, h, isp_core::CfaPattern::Rggb, 12, [0; 4], 4095, samples)
             .unwrap();
-    let develop = |lists: [Vec<Opcode>; 3], name: &str| {
-        let dng = Dng {
-            image: image.clone(),
-            camera_model: "opcode test".into(),
-            colour: DngColour::default(),
-            framing: Default::default(),
-            processing: Processing {
-                opcode_lists: lists,
-                ..Processing::default()
-            },
-        };
-        let input = dir.join(format!("{name}.dng"));
-        dng.write(&input).unwrap();
-        let output = dir.join(format!("{name}.png"));
-        let (ok, stdout, stderr) = camsim(&[
-            "isp",
-            "--input",
-            input.to_str().unwrap(),
-            "--output",
-            output.to_str().unwrap(),
-        ]);
-        assert!(ok, "{stderr}");
-        let rgb = imageio::read(&output).unwrap();
-        (rgb.data[(10 * w + 12) * 3], stdout, stderr)
-    };
     let listed = Opcode::FixBadPixelsList {
         bayer_phase: 0,
         points: vec![[10, 12]],
@@ -540,40 +568,47 @@ fn isp_corrects_the_bad_pixels_a_dng_lists_and_notes_opcodes_it_leaves_out() {
         id: 8,
         optional: true,
     };
-    let (hot, _, _) = develop(Default::default(), "plain");
-    let (fixed, stdout, stderr) = develop([vec![listed], vec![other], vec![]], "listed");
+    let plain = develop_with_opcodes(&dir, &image, Default::default(), "plain", &[]);
+    let listed = develop_with_opcodes(
+        &dir,
+        &image,
+        [vec![listed], vec![other], vec![]],
+        "listed",
+        &[],
+    );
+    assert!(plain.ok && listed.ok, "{}{}", plain.stderr, listed.stderr);
+    let (hot, fixed) = (plain.rgb[(10 * w + 12) * 3], listed.rgb[(10 * w + 12) * 3]);
     assert!(hot > 200 && fixed < 150, "hot {hot}, corrected {fixed}");
-    assert!(stdout.contains("defective pixels"), "{stdout}");
     assert!(
-        stderr.contains("MapPolynomial opcode (optional) is not applied"),
-        "{stderr}"
+        listed.stdout.contains("defective pixels"),
+        "{}",
+        listed.stdout
+    );
+    assert!(
+        listed
+            .stderr
+            .contains("MapPolynomial opcode (optional) is not applied"),
+        "{}",
+        listed.stderr
     );
     // The same opcode not marked optional is refused by name.
     let required = Opcode::Other {
         id: 8,
         optional: false,
     };
-    let dng = Dng {
-        image: image.clone(),
-        camera_model: "opcode test".into(),
-        colour: DngColour::default(),
-        framing: Default::default(),
-        processing: Processing {
-            opcode_lists: [vec![], vec![required], vec![]],
-            ..Processing::default()
-        },
-    };
-    let input = dir.join("required.dng");
-    dng.write(&input).unwrap();
-    let (ok, _, stderr) = camsim(&[
-        "isp",
-        "--input",
-        input.to_str().unwrap(),
-        "--output",
-        dir.join("required.png").to_str().unwrap(),
-    ]);
-    assert!(!ok, "an opcode that may not be skipped was skipped");
-    assert!(stderr.contains("MapPolynomial (id 8)"), "{stderr}");
+    let refused = develop_with_opcodes(
+        &dir,
+        &image,
+        [vec![], vec![required], vec![]],
+        "required",
+        &[],
+    );
+    assert!(!refused.ok, "an opcode that may not be skipped was skipped");
+    assert!(
+        refused.stderr.contains("MapPolynomial (id 8)"),
+        "{}",
+        refused.stderr
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -583,7 +618,6 @@ fn isp_corrects_the_bad_pixels_a_dng_lists_and_notes_opcodes_it_leaves_out() {
 #[test]
 fn isp_applies_a_dngs_gain_maps_as_lens_shading() {
     use raw_formats::dng::opcodes::{GainMap, Opcode};
-    use raw_formats::dng::{Dng, DngColour, Processing};
     let dir = std::env::temp_dir().join(format!("camsim-isp-gainmap-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let (w, h) = (96, 64);
@@ -626,39 +660,19 @@ fn isp_applies_a_dngs_gain_maps_as_lens_shading() {
         raw_formats::RawImage::new(w, h, isp_core::CfaPattern::Rggb, 12, [0; 4], 4095, samples)
             .unwrap();
     let spread = |lists: [Vec<Opcode>; 3], name: &str| {
-        let dng = Dng {
-            image: image.clone(),
-            camera_model: "gain map test".into(),
-            colour: DngColour::default(),
-            framing: Default::default(),
-            processing: Processing {
-                opcode_lists: lists,
-                ..Processing::default()
-            },
-        };
-        let input = dir.join(format!("{name}.dng"));
-        dng.write(&input).unwrap();
-        let output = dir.join(format!("{name}.png"));
-        let (ok, stdout, stderr) = camsim(&[
-            "isp",
-            "--input",
-            input.to_str().unwrap(),
-            "--output",
-            output.to_str().unwrap(),
-        ]);
-        assert!(ok, "{stderr}");
-        assert!(!stderr.contains("GainMap"), "{stderr}");
-        let rgb = imageio::read(&output).unwrap();
+        let run = develop_with_opcodes(&dir, &image, lists, name, &[]);
+        assert!(run.ok, "{}", run.stderr);
+        assert!(!run.stderr.contains("GainMap"), "{}", run.stderr);
         // Green, two pixels in from every edge (demosaicing borders aside).
         let mut greens: Vec<f64> = (2..h - 2)
             .flat_map(|y| (2..w - 2).map(move |x| (x, y)))
-            .map(|(x, y)| f64::from(rgb.data[(y * w + x) * 3 + 1]))
+            .map(|(x, y)| f64::from(run.rgb[(y * w + x) * 3 + 1]))
             .collect();
         // The 1st to 99th percentile: the grid's bilinear nodes meet the map's own bilinear
         // patches at a few pixels that land one or two codes further out.
         greens.sort_by(f64::total_cmp);
         let n = greens.len();
-        (greens[n * 99 / 100] - greens[n / 100], stdout)
+        (greens[n * 99 / 100] - greens[n / 100], run.stdout)
     };
     let (shaded, _) = spread(Default::default(), "shaded");
     let (corrected, stdout) = spread([vec![], maps, vec![]], "corrected");
@@ -680,7 +694,6 @@ fn isp_applies_a_dngs_gain_maps_as_lens_shading() {
 #[test]
 fn isp_corrects_the_distortion_a_dngs_warp_rectilinear_states() {
     use raw_formats::dng::opcodes::{warp_as_opencv, Opcode};
-    use raw_formats::dng::{Dng, DngColour, Processing};
     let dir = std::env::temp_dir().join(format!("camsim-isp-warp-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let (w, h) = (64, 48);
@@ -702,45 +715,25 @@ fn isp_corrects_the_distortion_a_dngs_warp_rectilinear_states() {
         centre: [0.5, 0.5],
     };
     let ([k1, k2, p1, p2, k3], [fx, fy, cx, cy]) = warp_as_opencv(&warp, w, h).unwrap();
-    let develop = |lists: [Vec<Opcode>; 3], name: &str, extra: &[String]| {
-        let dng = Dng {
-            image: image.clone(),
-            camera_model: "warp test".into(),
-            colour: DngColour::default(),
-            framing: Default::default(),
-            processing: Processing {
-                opcode_lists: lists,
-                ..Processing::default()
-            },
-        };
-        let input = dir.join(format!("{name}.dng"));
-        dng.write(&input).unwrap();
-        let output = dir.join(format!("{name}.png"));
-        let mut args = vec![
-            "isp".to_string(),
-            "--input".into(),
-            input.to_str().unwrap().into(),
-            "--output".into(),
-            output.to_str().unwrap().into(),
-        ];
-        args.extend(extra.iter().cloned());
-        let args: Vec<&str> = args.iter().map(String::as_str).collect();
-        let (ok, stdout, stderr) = camsim(&args);
-        assert!(ok, "{stderr}");
-        assert!(!stderr.contains("WarpRectilinear"), "{stderr}");
-        (imageio::read(&output).unwrap().data, stdout)
-    };
-    let (plain, _) = develop(Default::default(), "plain", &[]);
-    let (from_opcode, stdout) = develop([vec![], vec![], vec![warp]], "opcode", &[]);
-    let flags = [
-        "--distortion".to_string(),
+    let plain = develop_with_opcodes(&dir, &image, Default::default(), "plain", &[]);
+    let from_opcode =
+        develop_with_opcodes(&dir, &image, [vec![], vec![], vec![warp]], "opcode", &[]);
+    let (coefficients, camera) = (
         format!("{k1},{k2},{p1},{p2},{k3}"),
-        "--camera-matrix".into(),
         format!("{fx},{fy},{cx},{cy}"),
-    ];
-    let (from_flags, _) = develop(Default::default(), "flags", &flags);
-    assert!(stdout.contains("distortion: k1 -0.12"), "{stdout}");
-    assert_eq!(from_opcode, from_flags);
-    assert_ne!(from_opcode, plain);
+    );
+    let flags = ["--distortion", &coefficients, "--camera-matrix", &camera];
+    let from_flags = develop_with_opcodes(&dir, &image, Default::default(), "flags", &flags);
+    for run in [&plain, &from_opcode, &from_flags] {
+        assert!(run.ok, "{}", run.stderr);
+        assert!(!run.stderr.contains("WarpRectilinear"), "{}", run.stderr);
+    }
+    assert!(
+        from_opcode.stdout.contains("distortion: k1 -0.12"),
+        "{}",
+        from_opcode.stdout
+    );
+    assert_eq!(from_opcode.rgb, from_flags.rgb);
+    assert_ne!(from_opcode.rgb, plain.rgb);
     std::fs::remove_dir_all(&dir).ok();
 }

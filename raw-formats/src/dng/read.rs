@@ -278,23 +278,17 @@ impl Tiff<'_> {
             max_code = 65535.0;
         }
 
-        let (stored_width, stored_height) = (width, height);
-        let (width, height, mut raw) = match ifd.get(ACTIVE_AREA) {
-            Some(e) => {
-                let area = self.values(e)?;
-                crop_to_active_area(raw, width, height, &area)?
-            }
+        // The crop also gives the active area's corner, which moves the stored coordinates of
+        // OpcodeList1 into it.
+        let area = ifd.get(ACTIVE_AREA).map(|e| self.values(e)).transpose()?;
+        let (left, top) = match area.as_deref() {
+            Some([top, left, ..]) => (*left as usize, *top as usize),
+            _ => (0, 0),
+        };
+        let (width, height, mut raw) = match &area {
+            Some(area) => crop_to_active_area(raw, width, height, area)?,
             None => (width, height, raw),
         };
-        // The active area's corner, to move the stored coordinates of OpcodeList1 into it.
-        let (left, top) = match ifd.get(ACTIVE_AREA) {
-            Some(e) => {
-                let area = self.values(e)?;
-                (area[1] as usize, area[0] as usize)
-            }
-            None => (0, 0),
-        };
-        debug_assert!(left + width <= stored_width && top + height <= stored_height);
 
         let white = self.first(ifd, WHITE_LEVEL)?.unwrap_or(max_code);
         let level = |v: f64, field: &'static str| -> Result<u16> {
@@ -720,21 +714,10 @@ fn crop_to_active_area(
 mod tests {
     use super::*;
 
-    /// Packs `values` of `bits` bits most significant bit first, as DNG writers do.
+    /// Packs `values` of `bits` bits most significant bit first, with the writer's packer.
     fn pack(values: &[u16], bits: u32) -> Vec<u8> {
         let mut out = Vec::new();
-        let (mut acc, mut held) = (0u64, 0u32);
-        for v in values {
-            acc = (acc << bits) | u64::from(*v);
-            held += bits;
-            while held >= 8 {
-                held -= 8;
-                out.push((acc >> held) as u8);
-            }
-        }
-        if held > 0 {
-            out.push((acc << (8 - held)) as u8);
-        }
+        super::super::write::pack_row(values, bits, &mut out);
         out
     }
 

@@ -1,6 +1,7 @@
 //! The DNG writer: one IFD holding the CFA image, in either byte order, uncompressed (8 to 16
 //! bits, packed most significant bit first) or lossless-JPEG compressed, in strips or tiles.
 
+use std::borrow::Cow;
 use std::path::Path;
 
 use isp_core::colour::Mat3;
@@ -83,20 +84,8 @@ impl Entry {
     }
 
     fn bytes(&self, little: bool) -> Vec<u8> {
-        let u16b = |v: u16| {
-            if little {
-                v.to_le_bytes()
-            } else {
-                v.to_be_bytes()
-            }
-        };
-        let u32b = |v: u32| {
-            if little {
-                v.to_le_bytes()
-            } else {
-                v.to_be_bytes()
-            }
-        };
+        let u16b = |v: u16| u16_bytes(v, little);
+        let u32b = |v: u32| u32_bytes(v, little);
         match &self.values {
             Values::Bytes(v) | Values::Undefined(v) | Values::Ascii(v) => v.clone(),
             Values::Short(v) => v.iter().flat_map(|x| u16b(*x)).collect(),
@@ -178,8 +167,26 @@ pub(crate) fn rational(tag: u16, values: &[f64]) -> Entry {
     }
 }
 
+/// A `u16` in the file's byte order.
+fn u16_bytes(v: u16, little: bool) -> [u8; 2] {
+    if little {
+        v.to_le_bytes()
+    } else {
+        v.to_be_bytes()
+    }
+}
+
+/// A `u32` in the file's byte order.
+fn u32_bytes(v: u32, little: bool) -> [u8; 4] {
+    if little {
+        v.to_le_bytes()
+    } else {
+        v.to_be_bytes()
+    }
+}
+
 /// Packs one row of samples at `bits` bits, most significant bit first, into whole bytes.
-fn pack_row(row: &[u16], bits: u32, out: &mut Vec<u8>) {
+pub(crate) fn pack_row(row: &[u16], bits: u32, out: &mut Vec<u8>) {
     let (mut acc, mut held) = (0u64, 0u32);
     for v in row {
         acc = (acc << bits) | u64::from(*v);
@@ -242,21 +249,27 @@ impl Dng {
         };
         let across = image.width.div_ceil(cell_w);
         let down = image.height.div_ceil(cell_h);
-        let mut cells = Vec::with_capacity(across * down);
-        for ty in 0..down {
-            for tx in 0..across {
-                // A tile past the image's edge repeats its last column and row (padding a
-                // reader ignores; repeating keeps the prediction cheap to code).
-                let mut cell = Vec::with_capacity(cell_w * cell_h);
-                for y in ty * cell_h..(ty + 1) * cell_h {
-                    let y = y.min(image.height - 1);
-                    for x in tx * cell_w..(tx + 1) * cell_w {
-                        cell.push(image.samples[y * image.width + x.min(image.width - 1)]);
+        // One strip is the image itself; tiles are copied out, a tile past the image's edge
+        // repeating its last column and row (padding a reader ignores; repeating keeps the
+        // prediction cheap to code).
+        let cells: Vec<Cow<[u16]>> = if options.tile.is_none() {
+            vec![Cow::Borrowed(&image.samples)]
+        } else {
+            let mut cells = Vec::with_capacity(across * down);
+            for ty in 0..down {
+                for tx in 0..across {
+                    let (x0, x1) = (tx * cell_w, ((tx + 1) * cell_w).min(image.width));
+                    let mut cell = Vec::with_capacity(cell_w * cell_h);
+                    for y in ty * cell_h..(ty + 1) * cell_h {
+                        let row = &image.samples[y.min(image.height - 1) * image.width..];
+                        cell.extend_from_slice(&row[x0..x1]);
+                        cell.resize(cell.len() + cell_w - (x1 - x0), row[x1 - 1]);
                     }
+                    cells.push(Cow::Owned(cell));
                 }
-                cells.push(cell);
             }
-        }
+            cells
+        };
         cells
             .iter()
             .map(|cell| match options.storage {
@@ -273,13 +286,10 @@ impl Dng {
                     for row in cell.chunks_exact(cell_w) {
                         match bits {
                             8 => out.extend(row.iter().map(|v| *v as u8)),
-                            16 => out.extend(row.iter().flat_map(|v| {
-                                if options.little_endian {
-                                    v.to_le_bytes()
-                                } else {
-                                    v.to_be_bytes()
-                                }
-                            })),
+                            16 => out.extend(
+                                row.iter()
+                                    .flat_map(|v| u16_bytes(*v, options.little_endian)),
+                            ),
                             _ => pack_row(row, u32::from(bits), &mut out),
                         }
                     }
@@ -482,20 +492,8 @@ pub(crate) fn layout(mut entries: Vec<Entry>, segments: &[Vec<u8>], little: bool
             e.values = Values::Long(offsets.clone());
         }
     }
-    let u16b = |v: u16| {
-        if little {
-            v.to_le_bytes()
-        } else {
-            v.to_be_bytes()
-        }
-    };
-    let u32b = |v: u32| {
-        if little {
-            v.to_le_bytes()
-        } else {
-            v.to_be_bytes()
-        }
-    };
+    let u16b = |v: u16| u16_bytes(v, little);
+    let u32b = |v: u32| u32_bytes(v, little);
     let mut out = Vec::with_capacity(at);
     out.extend_from_slice(if little { b"II*\0" } else { b"MM\0*" });
     out.extend_from_slice(&u32b(8));
