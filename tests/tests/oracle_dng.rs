@@ -283,6 +283,7 @@ fn real_dngs_develop_like_libraw() {
             }
         }
         let psnr = 10.0 * (255.0f64.powi(2) / (squared / n as f64)).log10();
+        println!("{name}: {psnr:.2} dB against LibRaw's development");
         assert!(psnr >= least_db, "{name}: {psnr:.2} dB against LibRaw");
         // The default framing is the file's DefaultCrop.
         let (_, framed) = develop(&input, &IspOptions::default(), None).unwrap();
