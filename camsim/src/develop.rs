@@ -173,7 +173,11 @@ impl RawInput {
             bits: Some(image.bits),
             black_level: Some(image.black_level.to_vec()),
             white_level: Some(image.white_level),
-            white_balance: dng.colour.as_shot_gains().map(WhiteBalance::Gains),
+            white_balance: dng
+                .colour
+                .as_shot_gains()
+                .map_err(|e| e.in_file(path))?
+                .map(WhiteBalance::Gains),
             // FixBadPixelsConstant/List, resolved by the reader into a defect map.
             defects: (!dng.processing.bad_pixels.is_empty())
                 .then(|| dng.processing.bad_pixels.clone()),

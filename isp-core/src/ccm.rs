@@ -1,13 +1,16 @@
 //! Colour correction: from white-balanced camera RGB to linear sRGB.
 //!
 //! The pipeline applies one 3x3 matrix per frame, `lin = clamp(CCM * rgb, 0, 1)`. This module
-//! builds that matrix from a camera's calibration: two camera-to-XYZ matrices measured under two
-//! illuminants (say A at 2856 K and D65 at 6504 K), interpolated for the scene's colour
-//! temperature the way DNG does it: the XYZ-to-camera matrices (DNG's `ColorMatrix1/2`) are
-//! blended linearly in inverse CCT, with the weight clamped to `[0, 1]` outside the two
-//! temperatures, and the blend inverted. Then
+//! builds that matrix from a camera's calibration ([`Calibration`]): a DNG camera profile's
+//! ColorMatrix, CameraCalibration and ForwardMatrix under one or two illuminants (say A at
+//! 2856 K and D65 at 6504 K) and its AnalogBalance, combined as the DNG specification's chapter
+//! "Mapping Camera Color Space to CIE XYZ Space" says. The white balance's camera neutral is
+//! found in XYZ by iteration ([`Calibration::neutral_to_xy`]); its Robertson temperature sets
+//! the weight of each illuminant's matrices (linear in inverse CCT, clamped to `[0, 1]`
+//! outside the two temperatures); that gives `CameraToXYZ_D50` ([`Calibration::camera_to_xyz_d50`]).
+//! Then
 //!
-//! `CCM = XYZ_to_sRGB * Bradford(scene white -> D65) * camera_to_XYZ(cct) * diag(1 / gains)`
+//! `CCM = XYZ_to_sRGB * Bradford(D50 -> D65) * CameraToXYZ_D50 * diag(1 / gains)`
 //!
 //! scaled so the white-balanced neutral `(1, 1, 1)` has luminance 1: a grey in the scene comes
 //! out grey. Computed in `f64` once per frame; the fixed-point path holds the result in signed
@@ -19,7 +22,7 @@
 //! use isp_core::colour::LINEAR_SRGB_TO_XYZ;
 //! // A camera whose RGB is linear sRGB: the CCM for neutral gains is the identity.
 //! let cal = Calibration::single(6504.0, LINEAR_SRGB_TO_XYZ).unwrap();
-//! let ccm = cal.ccm(6504.0, [1.0, 1.0, 1.0]).unwrap();
+//! let ccm = cal.ccm(isp_core::colour::D65_XY, [1.0, 1.0, 1.0]).unwrap();
 //! for i in 0..3 {
 //!     for j in 0..3 {
 //!         let expected = if i == j { 1.0 } else { 0.0 };
@@ -161,27 +164,70 @@ pub fn fit(camera: &[[f64; 3]], reference: &[[f64; 3]]) -> Result<Mat3, IspError
     }))
 }
 
-/// The colour matrix [`Calibration::ccm_for_white_balance`] chose, with the temperature it
-/// chose it for.
+/// The colour matrix [`Calibration::ccm_for_white_balance`] chose, with the white it chose it
+/// for.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ChosenCcm {
-    /// The white balance's correlated colour temperature, kelvin.
+    /// The white balance's chromaticity: the camera neutral found in XYZ.
+    pub white_xy: [f64; 2],
+    /// Its correlated colour temperature (Robertson), kelvin: where the calibrations were
+    /// interpolated.
     pub cct_k: f64,
-    /// The pipeline CCM at that temperature for those gains.
+    /// The pipeline CCM for that white and those gains.
     pub ccm: [[f32; 3]; 3],
 }
 
-/// A camera's colour calibration under one or two illuminants.
+/// Passes of the neutral-to-white iteration before it settles for the mean of the last two, as
+/// the DNG SDK does; real calibrations converge to 1e-12 in well under ten.
+const WHITE_SEARCH_PASSES: usize = 50;
+
+/// A camera's colour calibration under one or two illuminants, as a DNG camera profile states
+/// it: for each illuminant a ColorMatrix (XYZ to reference camera), a CameraCalibration
+/// (reference to this camera, identity when absent) and optionally a ForwardMatrix
+/// (white-balanced camera to XYZ D50); and one AnalogBalance. The white balance's
+/// chromaticity chooses the temperature at which they are interpolated, as the DNG
+/// specification's chapter "Mapping Camera Color Space to CIE XYZ Space" sets out; checked
+/// against colour-hdri's implementation of that chapter (`tests/tests/oracle_colour.rs`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Calibration {
     cct: [f64; 2],
-    xyz_to_camera: [Mat3; 2],
+    color_matrix: [Mat3; 2],
+    camera_calibration: [Mat3; 2],
+    forward_matrix: Option<[Mat3; 2]>,
+    analog_balance: [f64; 3],
+}
+
+const IDENTITY3: Mat3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+
+fn finite(m: &Mat3) -> bool {
+    m.iter().flatten().all(|v| v.is_finite())
+}
+
+fn diagonal(v: [f64; 3]) -> Mat3 {
+    core::array::from_fn(|i| core::array::from_fn(|j| if i == j { v[i] } else { 0.0 }))
 }
 
 impl Calibration {
     /// Two calibrations: `camera_to_xyz` matrices measured under illuminants of the given
     /// correlated colour temperatures (kelvin, distinct, 1000..=25000).
     pub fn new(cct: [f64; 2], camera_to_xyz: [Mat3; 2]) -> Result<Self, IspError> {
+        Self::from_color_matrices(
+            cct,
+            [
+                colour::mat3_inverse(&camera_to_xyz[0])?,
+                colour::mat3_inverse(&camera_to_xyz[1])?,
+            ],
+        )
+    }
+
+    /// One calibration, used at every temperature.
+    pub fn single(cct: f64, camera_to_xyz: Mat3) -> Result<Self, IspError> {
+        Self::from_color_matrix(cct, colour::mat3_inverse(&camera_to_xyz)?)
+    }
+
+    /// Two DNG ColorMatrix tags (XYZ to camera) under illuminants of the given temperatures
+    /// (kelvin, distinct, 1000..=25000).
+    pub fn from_color_matrices(cct: [f64; 2], color_matrix: [Mat3; 2]) -> Result<Self, IspError> {
         let ok = cct.iter().all(|t| (1000.0..=25000.0).contains(t)) && cct[0] != cct[1];
         if !ok {
             return Err(IspError::InvalidParameter {
@@ -189,28 +235,79 @@ impl Calibration {
                 allowed: "two distinct temperatures in 1000..=25000 K",
             });
         }
+        for m in &color_matrix {
+            // An XYZ-to-camera matrix must be invertible to say where a neutral lies.
+            colour::mat3_inverse(m)?;
+        }
         Ok(Self {
             cct,
-            xyz_to_camera: [
-                colour::mat3_inverse(&camera_to_xyz[0])?,
-                colour::mat3_inverse(&camera_to_xyz[1])?,
-            ],
+            color_matrix,
+            camera_calibration: [IDENTITY3; 2],
+            forward_matrix: None,
+            analog_balance: [1.0; 3],
         })
     }
 
-    /// One calibration, used at every temperature.
-    pub fn single(cct: f64, camera_to_xyz: Mat3) -> Result<Self, IspError> {
+    /// One DNG ColorMatrix (XYZ to camera), used at every temperature; `cct` (1000..=25000 K)
+    /// only labels it.
+    pub fn from_color_matrix(cct: f64, color_matrix: Mat3) -> Result<Self, IspError> {
         if !(1000.0..=25000.0).contains(&cct) {
             return Err(IspError::InvalidParameter {
                 name: "calibration cct",
                 allowed: "1000..=25000 K",
             });
         }
-        let m = colour::mat3_inverse(&camera_to_xyz)?;
-        Ok(Self {
-            cct: [cct, cct + 1.0],
-            xyz_to_camera: [m, m],
-        })
+        Self::from_color_matrices([cct, cct + 1.0], [color_matrix; 2])
+    }
+
+    /// With the DNG CameraCalibration1/2 tags (reference camera to this one), in the order of
+    /// the colour matrices.
+    pub fn with_camera_calibration(
+        mut self,
+        camera_calibration: [Mat3; 2],
+    ) -> Result<Self, IspError> {
+        if !camera_calibration.iter().all(finite) {
+            return Err(IspError::InvalidParameter {
+                name: "camera calibration",
+                allowed: "finite values",
+            });
+        }
+        self.camera_calibration = camera_calibration;
+        Ok(self)
+    }
+
+    /// With the DNG AnalogBalance tag (the gains applied before digitising).
+    pub fn with_analog_balance(mut self, analog_balance: [f64; 3]) -> Result<Self, IspError> {
+        if !analog_balance.iter().all(|v| v.is_finite() && *v > 0.0) {
+            return Err(IspError::InvalidParameter {
+                name: "analog balance",
+                allowed: "three finite positive values",
+            });
+        }
+        self.analog_balance = analog_balance;
+        Ok(self)
+    }
+
+    /// With the DNG ForwardMatrix1/2 tags (white-balanced camera RGB to XYZ D50), in the order
+    /// of the colour matrices. Each is scaled row by row so it maps `(1, 1, 1)` to D50 exactly,
+    /// as the DNG SDK normalises them.
+    pub fn with_forward_matrices(mut self, forward_matrix: [Mat3; 2]) -> Result<Self, IspError> {
+        let d50 = colour::xy_to_xyz(colour::D50_XY)?;
+        let mut normalised = forward_matrix;
+        for m in &mut normalised {
+            let white = colour::mat3_mul_vec(m, [1.0; 3]);
+            if !(finite(m) && white.iter().all(|v| v.is_finite() && *v > 0.0)) {
+                return Err(IspError::InvalidParameter {
+                    name: "forward matrix",
+                    allowed: "finite, mapping (1, 1, 1) to positive XYZ",
+                });
+            }
+            for (row, (w, target)) in m.iter_mut().zip(white.iter().zip(d50)) {
+                *row = row.map(|v| v * target / w);
+            }
+        }
+        self.forward_matrix = Some(normalised);
+        Ok(self)
     }
 
     /// The weight of the first calibration at `cct`: linear in inverse CCT, clamped to `[0, 1]`.
@@ -219,8 +316,7 @@ impl Calibration {
         ((1.0 / cct - b) / (a - b)).clamp(0.0, 1.0)
     }
 
-    /// The camera-to-XYZ matrix at `cct` (kelvin, positive).
-    pub fn camera_to_xyz(&self, cct: f64) -> Result<Mat3, IspError> {
+    fn interpolated(&self, m: &[Mat3; 2], cct: f64) -> Result<Mat3, IspError> {
         if !(cct.is_finite() && cct > 0.0) {
             return Err(IspError::InvalidParameter {
                 name: "cct",
@@ -228,15 +324,102 @@ impl Calibration {
             });
         }
         let w = self.weight(cct);
-        let [m1, m2] = &self.xyz_to_camera;
-        let blend: Mat3 =
-            core::array::from_fn(|i| core::array::from_fn(|j| w * m1[i][j] + (1.0 - w) * m2[i][j]));
-        colour::mat3_inverse(&blend)
+        Ok(core::array::from_fn(|i| {
+            core::array::from_fn(|j| w * m[0][i][j] + (1.0 - w) * m[1][i][j])
+        }))
     }
 
-    /// The pipeline CCM for white-balanced data at `cct` with the `gains` the WB stage applied;
-    /// see the module docs.
-    pub fn ccm(&self, cct: f64, gains: [f32; 3]) -> Result<[[f32; 3]; 3], IspError> {
+    /// AnalogBalance times CameraCalibration at `cct`: reference camera to this camera.
+    fn reference_to_camera(&self, cct: f64) -> Result<Mat3, IspError> {
+        let cc = self.interpolated(&self.camera_calibration, cct)?;
+        Ok(colour::mat3_mul(&diagonal(self.analog_balance), &cc))
+    }
+
+    /// XYZ to this camera's RGB at `cct` (kelvin, positive):
+    /// `AnalogBalance * CameraCalibration(cct) * ColorMatrix(cct)`.
+    pub fn xyz_to_camera(&self, cct: f64) -> Result<Mat3, IspError> {
+        let cm = self.interpolated(&self.color_matrix, cct)?;
+        Ok(colour::mat3_mul(&self.reference_to_camera(cct)?, &cm))
+    }
+
+    /// The camera-to-XYZ matrix at `cct` (kelvin, positive): the inverse of
+    /// [`Self::xyz_to_camera`].
+    pub fn camera_to_xyz(&self, cct: f64) -> Result<Mat3, IspError> {
+        colour::mat3_inverse(&self.xyz_to_camera(cct)?)
+    }
+
+    /// The chromaticity of a camera neutral (the illuminant's colour in camera RGB, as a DNG's
+    /// AsShotNeutral states it or AWB estimates it). The matrix that maps it to XYZ depends
+    /// on the temperature it is sought at, so this iterates from D50: the neutral through the
+    /// matrix at the last estimate's temperature, until the estimate stops moving.
+    pub fn neutral_to_xy(&self, neutral: [f64; 3]) -> Result<[f64; 2], IspError> {
+        if !neutral.iter().all(|v| v.is_finite() && *v > 0.0) {
+            return Err(IspError::InvalidParameter {
+                name: "camera neutral",
+                allowed: "three finite positive values",
+            });
+        }
+        let mut xy = colour::D50_XY;
+        for pass in 0..WHITE_SEARCH_PASSES {
+            let to_xyz = self.camera_to_xyz(colour::xy_to_cct_robertson(xy)?)?;
+            let next = colour::xyz_to_xy(colour::mat3_mul_vec(&to_xyz, neutral))?;
+            if (next[0] - xy[0]).abs() + (next[1] - xy[1]).abs() < 1e-12 {
+                return Ok(next);
+            }
+            xy = if pass + 1 == WHITE_SEARCH_PASSES {
+                [(xy[0] + next[0]) / 2.0, (xy[1] + next[1]) / 2.0]
+            } else {
+                next
+            };
+        }
+        Ok(xy)
+    }
+
+    /// The camera neutral (green 1) of a white of chromaticity `xy`, as a DNG's AsShotWhiteXY
+    /// states it: its XYZ through [`Self::xyz_to_camera`] at its temperature.
+    pub fn xy_to_neutral(&self, xy: [f64; 2]) -> Result<[f64; 3], IspError> {
+        let to_camera = self.xyz_to_camera(colour::xy_to_cct_robertson(xy)?)?;
+        let n = colour::mat3_mul_vec(&to_camera, colour::xy_to_xyz(xy)?);
+        if !n.iter().all(|v| v.is_finite() && *v > 0.0) {
+            return Err(IspError::InvalidParameter {
+                name: "calibration",
+                allowed: "a positive camera response to the white",
+            });
+        }
+        Ok(n.map(|v| v / n[1]))
+    }
+
+    /// Camera RGB (not white-balanced) to XYZ adapted to D50, for a white of chromaticity
+    /// `white_xy`: the DNG specification's `CameraToXYZ_D50`. With forward matrices,
+    /// `ForwardMatrix * diag(1 / ReferenceNeutral) * (AnalogBalance * CameraCalibration)^-1`;
+    /// without, the inverse of [`Self::xyz_to_camera`] followed by Bradford from the white to
+    /// D50. Either way the white's camera neutral lands on D50.
+    pub fn camera_to_xyz_d50(&self, white_xy: [f64; 2]) -> Result<Mat3, IspError> {
+        let cct = colour::xy_to_cct_robertson(white_xy)?;
+        let d50 = colour::xy_to_xyz(colour::D50_XY)?;
+        let Some(forward) = &self.forward_matrix else {
+            let to_d50 = colour::bradford_adaptation(colour::xy_to_xyz(white_xy)?, d50)?;
+            return Ok(colour::mat3_mul(&to_d50, &self.camera_to_xyz(cct)?));
+        };
+        let to_reference = colour::mat3_inverse(&self.reference_to_camera(cct)?)?;
+        let reference_neutral = colour::mat3_mul_vec(&to_reference, self.xy_to_neutral(white_xy)?);
+        if !reference_neutral.iter().all(|v| v.is_finite() && *v > 0.0) {
+            return Err(IspError::InvalidParameter {
+                name: "camera calibration",
+                allowed: "a positive reference neutral",
+            });
+        }
+        let balance = diagonal(reference_neutral.map(|v| 1.0 / v));
+        let fm = self.interpolated(forward, cct)?;
+        Ok(colour::mat3_mul(
+            &fm,
+            &colour::mat3_mul(&balance, &to_reference),
+        ))
+    }
+
+    /// The pipeline CCM for data white-balanced with `gains` under a white of chromaticity
+    /// `white_xy`: see the module docs.
+    pub fn ccm(&self, white_xy: [f64; 2], gains: [f32; 3]) -> Result<[[f32; 3]; 3], IspError> {
         crate::wb::validate_gains(gains)?;
         if gains.iter().any(|g| *g <= 0.0) {
             return Err(IspError::InvalidParameter {
@@ -244,18 +427,9 @@ impl Calibration {
                 allowed: "positive",
             });
         }
-        let to_xyz = self.camera_to_xyz(cct)?;
-        let unbalance: Mat3 = core::array::from_fn(|i| {
-            core::array::from_fn(|j| if i == j { 1.0 / gains[i] as f64 } else { 0.0 })
-        });
-        let camera = colour::mat3_mul(&to_xyz, &unbalance);
+        let unbalance = diagonal(gains.map(|g| 1.0 / f64::from(g)));
+        let camera = colour::mat3_mul(&self.camera_to_xyz_d50(white_xy)?, &unbalance);
         let white = colour::mat3_mul_vec(&camera, [1.0; 3]);
-        let d65 = colour::xy_to_xyz(colour::D65_XY)?.map(|v| v * white[1]);
-        let adapt = colour::bradford_adaptation(white, d65)?;
-        let m = colour::mat3_mul(
-            &colour::XYZ_TO_LINEAR_SRGB,
-            &colour::mat3_mul(&adapt, &camera),
-        );
         let y = white[1];
         if !(y.is_finite() && y > 0.0) {
             return Err(IspError::InvalidParameter {
@@ -263,28 +437,28 @@ impl Calibration {
                 allowed: "a neutral with positive luminance",
             });
         }
+        let d65 = colour::xy_to_xyz(colour::D65_XY)?.map(|v| v * y);
+        let adapt = colour::bradford_adaptation(white, d65)?;
+        let m = colour::mat3_mul(
+            &colour::XYZ_TO_LINEAR_SRGB,
+            &colour::mat3_mul(&adapt, &camera),
+        );
         let ccm = m.map(|row| row.map(|c| (c / y) as f32));
         validate(&ccm)?;
         Ok(ccm)
     }
 
-    /// The correlated colour temperature (kelvin) of a camera neutral: the illuminant's colour
-    /// in camera RGB, as AWB estimates it or as a DNG's AsShotNeutral states it. The
-    /// camera-to-XYZ matrix depends on the temperature, so this iterates three times from
-    /// 5000 K (McCamy's CCT of the neutral through the matrix at the last estimate).
+    /// The correlated colour temperature (kelvin, Robertson) of a camera neutral: that of
+    /// [`Self::neutral_to_xy`].
     pub fn cct_of_neutral(&self, neutral: [f32; 3]) -> Result<f64, IspError> {
-        let mut cct = 5000.0;
-        for _ in 0..3 {
-            let m = self.camera_to_xyz(cct)?;
-            cct = crate::wb::cct_of_neutral(neutral, &m)?;
-        }
-        Ok(cct)
+        colour::xy_to_cct_robertson(self.neutral_to_xy(neutral.map(f64::from))?)
     }
 
     /// The colour matrix that follows the white balance: white-balance `gains` -> their neutral
-    /// (`1 / gains`) -> its CCT ([`Self::cct_of_neutral`]) -> the calibration interpolated there
-    /// ([`Self::ccm`]). The one place that choice is made, as libcamera's CCM algorithm does
-    /// from its AWB result.
+    /// (`1 / gains`) -> its chromaticity ([`Self::neutral_to_xy`]) -> the calibration
+    /// interpolated at its temperature ([`Self::ccm`]). The one place that choice is made, as
+    /// a DNG reader makes it from AsShotNeutral and libcamera's CCM algorithm from its AWB
+    /// result.
     ///
     /// ```
     /// use isp_core::ccm::Calibration;
@@ -295,25 +469,21 @@ impl Calibration {
     /// ```
     pub fn ccm_for_white_balance(&self, gains: [f32; 3]) -> Result<ChosenCcm, IspError> {
         crate::wb::validate_gains(gains)?;
-        let neutral = gains.map(|g| 1.0 / g);
-        let cct_k = self.cct_of_neutral(neutral)?;
-        let ccm = self.ccm(cct_k, gains)?;
-        Ok(ChosenCcm { cct_k, ccm })
+        let neutral = gains.map(|g| 1.0 / f64::from(g));
+        let white_xy = self.neutral_to_xy(neutral)?;
+        let cct_k = colour::xy_to_cct_robertson(white_xy)?;
+        let ccm = self.ccm(white_xy, gains)?;
+        Ok(ChosenCcm {
+            white_xy,
+            cct_k,
+            ccm,
+        })
     }
 
     /// White-balance gains (green 1) that make `preset`'s illuminant neutral for this camera.
     pub fn preset_gains(&self, preset: WbPreset) -> Result<[f32; 3], IspError> {
-        let xy = preset.xy()?;
-        let cct = colour::xy_to_cct_mccamy(xy)?;
-        let to_camera = colour::mat3_inverse(&self.camera_to_xyz(cct)?)?;
-        let neutral = colour::mat3_mul_vec(&to_camera, colour::xy_to_xyz(xy)?);
-        if !neutral.iter().all(|v| v.is_finite() && *v > 0.0) {
-            return Err(IspError::InvalidParameter {
-                name: "calibration",
-                allowed: "a positive camera response to the preset's illuminant",
-            });
-        }
-        let gains = [neutral[1] / neutral[0], 1.0, neutral[1] / neutral[2]].map(|g| g as f32);
+        let neutral = self.xy_to_neutral(preset.xy()?)?;
+        let gains = neutral.map(|v| (1.0 / v) as f32);
         crate::wb::validate_gains(gains)?;
         Ok(gains)
     }

@@ -44,6 +44,9 @@ pub const BRADFORD: Mat3 = [
 /// CIE 1931 2-degree chromaticity of D65 (0.3127, 0.3290).
 pub const D65_XY: [f64; 2] = [0.3127, 0.3290];
 
+/// D50's chromaticity as the DNG specification's profile connection space states it (ICC).
+pub const D50_XY: [f64; 2] = [0.3457, 0.3585];
+
 /// `m * v`.
 pub fn mat3_mul_vec(m: &Mat3, v: [f64; 3]) -> [f64; 3] {
     [
@@ -158,6 +161,87 @@ pub fn xy_to_cct_mccamy(xy: [f64; 2]) -> Result<f64, IspError> {
     }
     let n = (x - 0.3320) / (y - 0.1858);
     Ok(((-449.0 * n + 3525.0) * n - 6823.3) * n + 5520.33)
+}
+
+/// Robertson's isotemperature lines (1968): reciprocal temperature (mired), the CIE 1960 `uv`
+/// where each line crosses the Planckian locus, and the line's slope. From Wyszecki and Stiles,
+/// *Color Science* (2nd ed., 1982), table 1(3.11), with the 325-mired `u` as Bruce Lindbloom
+/// corrected it (0.24792), as colour-science and the DNG SDK use it.
+const ROBERTSON_1968: [[f64; 4]; 31] = [
+    [0.0, 0.18006, 0.26352, -0.24341],
+    [10.0, 0.18066, 0.26589, -0.25479],
+    [20.0, 0.18133, 0.26846, -0.26876],
+    [30.0, 0.18208, 0.27119, -0.28539],
+    [40.0, 0.18293, 0.27407, -0.30470],
+    [50.0, 0.18388, 0.27709, -0.32675],
+    [60.0, 0.18494, 0.28021, -0.35156],
+    [70.0, 0.18611, 0.28342, -0.37915],
+    [80.0, 0.18740, 0.28668, -0.40955],
+    [90.0, 0.18880, 0.28997, -0.44278],
+    [100.0, 0.19032, 0.29326, -0.47888],
+    [125.0, 0.19462, 0.30141, -0.58204],
+    [150.0, 0.19962, 0.30921, -0.70471],
+    [175.0, 0.20525, 0.31647, -0.84901],
+    [200.0, 0.21142, 0.32312, -1.0182],
+    [225.0, 0.21807, 0.32909, -1.2168],
+    [250.0, 0.22511, 0.33439, -1.4512],
+    [275.0, 0.23247, 0.33904, -1.7298],
+    [300.0, 0.24010, 0.34308, -2.0637],
+    [325.0, 0.24792, 0.34655, -2.4681],
+    [350.0, 0.25591, 0.34951, -2.9641],
+    [375.0, 0.26400, 0.35200, -3.5814],
+    [400.0, 0.27218, 0.35407, -4.3633],
+    [425.0, 0.28039, 0.35577, -5.3762],
+    [450.0, 0.28863, 0.35714, -6.7262],
+    [475.0, 0.29685, 0.35823, -8.5955],
+    [500.0, 0.30505, 0.35907, -11.324],
+    [525.0, 0.31320, 0.35968, -15.628],
+    [550.0, 0.32129, 0.36011, -23.325],
+    [575.0, 0.32931, 0.36038, -40.770],
+    [600.0, 0.33724, 0.36051, -116.45],
+];
+
+/// Correlated colour temperature (K) of chromaticity `xy` by Robertson's method (1968): the
+/// two isotemperature lines the point lies between, interpolated by its distance to each, in
+/// CIE 1960 `uv`. The method the DNG specification's reference code uses to find the
+/// temperature at which to interpolate a camera's two colour matrices. Saturates at the
+/// table's ends: about 1667 K (600 mired) and 100000 K (10 mired).
+///
+/// ```
+/// use isp_core::colour::xy_to_cct_robertson;
+/// let cct = xy_to_cct_robertson([0.3127, 0.3290]).unwrap(); // D65
+/// assert!((cct - 6504.0).abs() < 2.0);
+/// ```
+pub fn xy_to_cct_robertson(xy: [f64; 2]) -> Result<f64, IspError> {
+    let [x, y] = chromaticity(xy)?;
+    let denominator = -2.0 * x + 12.0 * y + 3.0;
+    if !(denominator.is_finite() && denominator > 0.0) {
+        return Err(IspError::InvalidParameter {
+            name: "xy",
+            allowed: "a chromaticity with -2x + 12y + 3 > 0",
+        });
+    }
+    let (u, v) = (4.0 * x / denominator, 6.0 * y / denominator);
+    let last = ROBERTSON_1968.len() - 1;
+    let mut previous_distance = 0.0;
+    for i in 1..=last {
+        let [_, u_i, v_i, slope] = ROBERTSON_1968[i];
+        let length = math::sqrt(1.0 + slope * slope);
+        // Signed distance from the isotemperature line; it turns negative past the line.
+        let distance = (v - v_i) / length - (u - u_i) * slope / length;
+        if distance <= 0.0 || i == last {
+            let distance = -distance.min(0.0);
+            let f = if i == 1 {
+                0.0
+            } else {
+                distance / (previous_distance + distance)
+            };
+            let mired = ROBERTSON_1968[i - 1][0] * f + ROBERTSON_1968[i][0] * (1.0 - f);
+            return Ok(1e6 / mired);
+        }
+        previous_distance = distance;
+    }
+    Ok(1e6 / ROBERTSON_1968[last][0])
 }
 
 /// Chromaticity of the CIE daylight (D-series) illuminant of correlated colour temperature

@@ -324,7 +324,7 @@ fn calibration_ccm_and_presets() {
     let mid = 2.0 / (1.0 / 2856.0 + 1.0 / 6504.0);
     assert!((cal.weight(mid) - 0.5).abs() < 1e-12);
     assert_eq!(cal.weight(1000.0), 1.0);
-    let ccm = cal.ccm(6504.0, [1.0; 3]).unwrap();
+    let ccm = cal.ccm(colour::D65_XY, [1.0; 3]).unwrap();
     // Under D65 a camera colour mix * rgb comes back to rgb.
     let rgb = [0.2f64, 0.5, 0.7];
     let cam = colour::mat3_mul_vec(&mix, rgb);
@@ -340,9 +340,8 @@ fn calibration_ccm_and_presets() {
         let balanced: Vec<f64> = (0..3).map(|i| cam[i] * gains[i] as f64).collect();
         assert!((balanced[0] / balanced[1] - 1.0).abs() < 1e-5, "{preset:?}");
         assert!((balanced[2] / balanced[1] - 1.0).abs() < 1e-5, "{preset:?}");
-        // And the CCM at that temperature keeps it grey.
-        let cct = colour::xy_to_cct_mccamy(preset.xy().unwrap()).unwrap();
-        let ccm = cal.ccm(cct, gains).unwrap();
+        // And the CCM for that white keeps it grey.
+        let ccm = cal.ccm(preset.xy().unwrap(), gains).unwrap();
         let white: Vec<f32> = (0..3).map(|i| ccm[i].iter().sum()).collect();
         assert!(
             (white[0] - white[1]).abs() < 2e-3 && (white[2] - white[1]).abs() < 2e-3,

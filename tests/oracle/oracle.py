@@ -13,6 +13,7 @@ Each op calls one reference implementation (OpenCV, colour-science, colour-demos
 nothing else, so a disagreement points at camsim, not at glue code here.
 """
 
+import importlib.metadata
 import json
 import struct
 import pathlib
@@ -78,6 +79,8 @@ def op_ping(args, arrays):
         "colour-science": colour.__version__,
         "colour-demosaicing": colour_demosaicing.__version__,
         "rawpy": rawpy.__version__,
+        # Imported only by the DNG colour op (it is slow to import); its version from metadata.
+        "colour-hdri": importlib.metadata.version("colour-hdri"),
     }
     return {"versions": versions}, []
 
@@ -114,6 +117,32 @@ def op_xy_to_cct_mccamy(args, arrays):
     import colour
 
     return {}, [colour.temperature.xy_to_CCT(arrays[0], "McCamy 1992")]
+
+
+def op_xy_to_cct_robertson(args, arrays):
+    """arrays: xy (N,2). Robertson 1968 through CIE 1960 UCS, as colour-hdri's DNG code does."""
+    import colour
+
+    uv = colour.UCS_to_uv(colour.XYZ_to_UCS(colour.xy_to_XYZ(arrays[0])))
+    return {}, [colour.temperature.uv_to_CCT_Robertson1968(uv)[..., 0]]
+
+
+def op_dng_colour(args, arrays):
+    """The DNG specification's "Mapping Camera Color Space to CIE XYZ Space", by colour-hdri.
+    args: cct1 < cct2 (kelvin). arrays: ColorMatrix1, ColorMatrix2, CameraCalibration1,
+    CameraCalibration2 (3,3), AnalogBalance (3,), ForwardMatrix1, ForwardMatrix2 (3,3; identity
+    for none, colour-hdri's convention), camera neutrals (N,3), white chromaticities (M,2).
+    Returns each neutral's xy (N,2), each white's camera neutral (M,3) and its
+    CameraToXYZ_D50 (M,3,3)."""
+    from colour_hdri.models import dng
+
+    cm1, cm2, cc1, cc2, ab, fm1, fm2, neutrals, whites = arrays
+    t1, t2 = args["cct1"], args["cct2"]
+    common = (t1, t2, cm1, cm2, cc1, cc2, ab)
+    xys = [dng.camera_neutral_to_xy(n, *common, epsilon=1e-14) for n in neutrals]
+    back = [dng.xy_to_camera_neutral(xy, *common) for xy in whites]
+    to_xyz = [dng.matrix_camera_space_to_XYZ(xy, *common, fm1, fm2) for xy in whites]
+    return {}, [np.array(xys), np.array(back), np.array(to_xyz)]
 
 
 def op_cct_to_xy_daylight(args, arrays):
@@ -255,7 +284,9 @@ def op_rawpy_develop(args, arrays):
 def op_pidng_write(args, arrays):
     """args: path, bits (8, 10, 12, 14 or 16), compress (lossless JPEG, else packed
     uncompressed), pattern (CFA codes, 4 values), black, white. arrays[0]: the samples (H,W)
-    u16. Writes a DNG with pidng (an independent writer) as one tile covering the image."""
+    u16. Optional args: color_matrix (9 values, ColorMatrix1 under D65; identity if absent),
+    neutral (AsShotNeutral, 3 values). Writes a DNG with pidng (an independent writer) as one
+    tile covering the image."""
     from pidng.core import RAW2DNG, DNGTags, Tag
     from pidng.defs import DNGVersion, PhotometricInterpretation
 
@@ -274,9 +305,11 @@ def op_pidng_write(args, arrays):
     tags.set(Tag.CFAPattern, [int(v) for v in args["pattern"]])
     tags.set(Tag.BlackLevel, int(args["black"]))
     tags.set(Tag.WhiteLevel, int(args["white"]))
-    tags.set(Tag.ColorMatrix1, [[10000, 10000], [0, 10000], [0, 10000], [0, 10000], [10000, 10000], [0, 10000], [0, 10000], [0, 10000], [10000, 10000]])
+    color_matrix = args.get("color_matrix", [1, 0, 0, 0, 1, 0, 0, 0, 1])
+    tags.set(Tag.ColorMatrix1, [[round(v * 10000), 10000] for v in color_matrix])
     tags.set(Tag.CalibrationIlluminant1, 21)
-    tags.set(Tag.AsShotNeutral, [[1, 2], [1, 1], [2, 3]])
+    neutral = args.get("neutral", [0.5, 1.0, 2 / 3])
+    tags.set(Tag.AsShotNeutral, [[round(v * 1000000), 1000000] for v in neutral])
     tags.set(Tag.DNGVersion, DNGVersion.V1_4)
     tags.set(Tag.Make, "pidng")
     tags.set(Tag.Model, "oracle")

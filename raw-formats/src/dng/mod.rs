@@ -108,7 +108,12 @@ impl Illuminant {
         }
     }
 
-    /// Correlated colour temperature in kelvin, for the codes that have one.
+    /// Correlated colour temperature in kelvin, for the codes that have one: the CIE
+    /// illuminants' own (A, B, C, D50..D75), and for EXIF 2.3's descriptive light sources a
+    /// nominal value, as raw converters assign them (daylight, flash and fine weather 5500 K,
+    /// cloudy 6500 K, shade 7500 K, tungsten 2850 K, ISO studio tungsten 3200 K; each
+    /// fluorescent class the middle of its JIS Z 9112 range). `None` for unknown (0), other
+    /// (255) and unassigned codes.
     pub fn cct_k(self) -> Option<f64> {
         match self {
             Illuminant::A => Some(2856.0),
@@ -116,7 +121,22 @@ impl Illuminant {
             Illuminant::D55 => Some(5503.0),
             Illuminant::D65 => Some(6504.0),
             Illuminant::D75 => Some(7504.0),
-            Illuminant::Other(_) => None,
+            Illuminant::Other(code) => match code {
+                1 | 4 | 9 => Some(5500.0),
+                3 => Some(2850.0),
+                10 => Some(6500.0),
+                11 => Some(7500.0),
+                // Daylight (D), day white (N), cool white (W), white (WW), warm white (L).
+                12 => Some((5700.0 + 7100.0) / 2.0),
+                13 => Some((4600.0 + 5500.0) / 2.0),
+                2 | 14 => Some((3900.0 + 4500.0) / 2.0),
+                15 => Some((3200.0 + 3700.0) / 2.0),
+                16 => Some((2600.0 + 3250.0) / 2.0),
+                18 => Some(4874.0),
+                19 => Some(6774.0),
+                24 => Some(3200.0),
+                _ => None,
+            },
         }
     }
 
@@ -178,11 +198,9 @@ impl ColourCalibration {
 }
 
 /// A camera's colour metadata as a DNG states it. [`DngColour::to_calibration`] is the one
-/// conversion to isp-core's [`Calibration`]; [`ColourCalibration::from_camera_to_xyz`] the
-/// one conversion from a measured matrix.
-///
-/// ForwardMatrix, CameraCalibration and AnalogBalance are read and written but not yet used
-/// by [`DngColour::to_calibration`], which follows ColorMatrix alone.
+/// conversion to isp-core's [`Calibration`], which combines the tags as the DNG
+/// specification's "Mapping Camera Color Space to CIE XYZ Space" says;
+/// [`ColourCalibration::from_camera_to_xyz`] the one conversion from a measured matrix.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct DngColour {
     /// ColorMatrix1/2 with their illuminants (and the matrices that go with them), at most two.
@@ -191,45 +209,78 @@ pub struct DngColour {
     pub analog_balance: Option<[f64; 3]>,
     /// AsShotNeutral: the white balance as shot, the illuminant's colour in camera RGB.
     pub as_shot_neutral: Option<[f64; 3]>,
+    /// AsShotWhiteXY: the white balance as shot, as a chromaticity (the alternative to
+    /// AsShotNeutral).
+    pub as_shot_white_xy: Option<[f64; 2]>,
 }
 
 impl DngColour {
-    /// isp-core's calibration from the colour matrices (each inverted to camera-to-XYZ, at its
-    /// illuminant's temperature); `None` when the file has none. A single matrix is used at
-    /// every temperature, whatever its illuminant (the DNG specification allows it without
-    /// one); two need illuminants of known temperature to be interpolated.
+    /// isp-core's calibration from the colour tags; `None` when the file has no ColorMatrix.
+    /// Two calibrations under illuminants of known, distinct temperatures are interpolated;
+    /// otherwise the first is used at every temperature, whatever its illuminant (the DNG
+    /// specification allows a profile without one). CameraCalibration defaults to identity,
+    /// AnalogBalance to ones; ForwardMatrix is used when every calibration used has one.
     pub fn to_calibration(&self) -> Result<Option<Calibration>> {
-        let to_xyz = |c: &ColourCalibration| {
-            colour::mat3_inverse(&c.color_matrix).map_err(|source| FormatError::Colour {
-                field: "ColorMatrix",
-                source,
-            })
+        let colour_error =
+            |field: &'static str| move |source| FormatError::Colour { field, source };
+        let temperatures = match self.calibrations.as_slice() {
+            [a, b] => match (a.illuminant.cct_k(), b.illuminant.cct_k()) {
+                (Some(ta), Some(tb)) if ta != tb => Some([ta, tb]),
+                _ => None,
+            },
+            _ => None,
         };
-        let cct = |c: &ColourCalibration| {
-            c.illuminant.cct_k().ok_or(FormatError::Unsupported {
-                field: "calibration illuminant code",
-                value: c.illuminant.code().to_string(),
-                supported:
-                    "with two colour matrices, A, D50, D55, D65 or D75 (a known temperature)",
-            })
+        let (first, used) = match (self.calibrations.as_slice(), temperatures) {
+            ([], _) => return Ok(None),
+            ([a, b], Some(_)) => (a, [a, b]),
+            ([a, ..], _) => (a, [a, a]),
         };
-        let calibration = match self.calibrations.as_slice() {
-            [] => return Ok(None),
+        let mut calibration = match temperatures {
+            Some(t) => Calibration::from_color_matrices(t, used.map(|c| c.color_matrix)),
             // One matrix holds at every temperature; the temperature only labels it.
-            [c] => Calibration::single(c.illuminant.cct_k().unwrap_or(6504.0), to_xyz(c)?),
-            [a, b] => Calibration::new([cct(a)?, cct(b)?], [to_xyz(a)?, to_xyz(b)?]),
-            _ => return Ok(None),
-        };
-        calibration.map(Some).map_err(|source| FormatError::Colour {
-            field: "colour matrices",
-            source,
-        })
+            None => Calibration::from_color_matrix(
+                first.illuminant.cct_k().unwrap_or(6504.0),
+                first.color_matrix,
+            ),
+        }
+        .map_err(colour_error("ColorMatrix"))?;
+        let identity = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        calibration = calibration
+            .with_camera_calibration(used.map(|c| c.camera_calibration.unwrap_or(identity)))
+            .map_err(colour_error("CameraCalibration"))?;
+        if let [Some(a), Some(b)] = used.map(|c| c.forward_matrix) {
+            calibration = calibration
+                .with_forward_matrices([a, b])
+                .map_err(colour_error("ForwardMatrix"))?;
+        }
+        if let Some(balance) = self.analog_balance {
+            calibration = calibration
+                .with_analog_balance(balance)
+                .map_err(colour_error("AnalogBalance"))?;
+        }
+        Ok(Some(calibration))
     }
 
-    /// White-balance gains (green 1) from the as-shot neutral.
-    pub fn as_shot_gains(&self) -> Option<[f32; 3]> {
-        self.as_shot_neutral
-            .map(|n| [(n[1] / n[0]) as f32, 1.0, (n[1] / n[2]) as f32])
+    /// White-balance gains (green 1) as shot: from AsShotNeutral, else from AsShotWhiteXY
+    /// through the calibration ([`Calibration::xy_to_neutral`]); `None` when the file states
+    /// neither (or only a white without a ColorMatrix to place it).
+    pub fn as_shot_gains(&self) -> Result<Option<[f32; 3]>> {
+        let neutral = match (self.as_shot_neutral, self.as_shot_white_xy) {
+            (Some(n), _) => n,
+            (None, Some(xy)) => match self.to_calibration()? {
+                Some(c) => c.xy_to_neutral(xy).map_err(|source| FormatError::Colour {
+                    field: "AsShotWhiteXY",
+                    source,
+                })?,
+                None => return Ok(None),
+            },
+            (None, None) => return Ok(None),
+        };
+        Ok(Some([
+            (neutral[1] / neutral[0]) as f32,
+            1.0,
+            (neutral[1] / neutral[2]) as f32,
+        ]))
     }
 }
 
@@ -318,6 +369,7 @@ pub(crate) mod tags {
     pub(crate) const CAMERA_CALIBRATION_2: u16 = 50724;
     pub(crate) const ANALOG_BALANCE: u16 = 50727;
     pub(crate) const AS_SHOT_NEUTRAL: u16 = 50728;
+    pub(crate) const AS_SHOT_WHITE_XY: u16 = 50729;
     pub(crate) const CALIBRATION_ILLUMINANT_1: u16 = 50778;
     pub(crate) const CALIBRATION_ILLUMINANT_2: u16 = 50779;
     pub(crate) const FORWARD_MATRIX_1: u16 = 50964;
@@ -426,8 +478,54 @@ mod tests {
         d.colour.calibrations[0].forward_matrix = Some(m);
         d.colour.calibrations[1].camera_calibration = Some(m);
         d.colour.analog_balance = Some([1.0, 0.5, 1.0]);
+        d.colour.as_shot_white_xy = Some([0.3125, 0.328125]);
         let back = Dng::decode(&d.encode().unwrap()).unwrap();
         assert_eq!(back.colour, d.colour);
+    }
+
+    /// Every colour tag reaches the calibration: the one `to_calibration` builds equals the
+    /// one built from the tags by hand, ForwardMatrix only when both calibrations have one, and
+    /// AsShotWhiteXY (without AsShotNeutral) gives the gains of the neutral the calibration
+    /// places it at.
+    #[test]
+    fn colour_tags_combine_into_the_calibration() {
+        let mut colour = sample().colour;
+        let fm = [[0.6, 0.25, 0.1], [0.3, 0.7, 0.0], [0.05, 0.1, 0.65]];
+        let cc = [[1.02, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.01, 0.97]];
+        colour.calibrations[0].camera_calibration = Some(cc);
+        colour.calibrations[0].forward_matrix = Some(fm);
+        colour.analog_balance = Some([1.1, 1.0, 0.9]);
+        let cms = [0, 1].map(|i| colour.calibrations[i].color_matrix);
+        let identity = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        let by_hand = Calibration::from_color_matrices([2856.0, 6504.0], cms)
+            .unwrap()
+            .with_camera_calibration([cc, identity])
+            .unwrap()
+            .with_analog_balance([1.1, 1.0, 0.9])
+            .unwrap();
+        assert_eq!(colour.to_calibration().unwrap(), Some(by_hand));
+        colour.calibrations[1].forward_matrix = Some(fm);
+        let with_forward = by_hand.with_forward_matrices([fm, fm]).unwrap();
+        assert_eq!(colour.to_calibration().unwrap(), Some(with_forward));
+
+        colour.as_shot_neutral = None;
+        colour.as_shot_white_xy = Some([0.4, 0.39]);
+        let neutral = with_forward.xy_to_neutral([0.4, 0.39]).unwrap();
+        let gains = colour.as_shot_gains().unwrap().unwrap();
+        for (g, n) in gains.iter().zip(neutral) {
+            assert!(
+                (f64::from(*g) * n - 1.0).abs() < 1e-6,
+                "{gains:?} {neutral:?}"
+            );
+        }
+        // The neutral found for that white maps back to it.
+        let xy = with_forward.neutral_to_xy(neutral).unwrap();
+        assert!(
+            (xy[0] - 0.4).abs() < 1e-9 && (xy[1] - 0.39).abs() < 1e-9,
+            "{xy:?}"
+        );
+        colour.calibrations.clear();
+        assert_eq!(colour.as_shot_gains().unwrap(), None);
     }
 
     #[test]
@@ -463,16 +561,16 @@ mod tests {
             as_shot_neutral: Some([0.5, 1.0, 0.8]),
             ..DngColour::default()
         };
-        assert_eq!(colour.as_shot_gains(), Some([2.0, 1.0, 1.25]));
+        assert_eq!(colour.as_shot_gains().unwrap(), Some([2.0, 1.0, 1.25]));
         let cal = colour.to_calibration().unwrap().unwrap();
         // The scale does not change the colour: the CCM for neutral gains is the identity.
-        let ccm = cal.ccm(6504.0, [1.0; 3]).unwrap();
+        let ccm = cal.ccm(colour::D65_XY, [1.0; 3]).unwrap();
         for (i, row) in ccm.iter().enumerate() {
             for (j, v) in row.iter().enumerate() {
                 assert!((v - if i == j { 1.0 } else { 0.0 }).abs() < 2e-3, "{ccm:?}");
             }
         }
-        // One matrix without a known illuminant is used as is; two need temperatures.
+        // A matrix without a known illuminant is used as is, alone or first of two.
         let unknown =
             ColourCalibration::new(Illuminant::Other(0), colour.calibrations[0].color_matrix);
         let single = DngColour {
@@ -484,7 +582,7 @@ mod tests {
             calibrations: vec![unknown, colour.calibrations[0]],
             ..DngColour::default()
         };
-        assert!(two.to_calibration().is_err());
+        assert_eq!(two.to_calibration().unwrap(), Some(cal));
         assert_eq!(DngColour::default().to_calibration().unwrap(), None);
     }
 

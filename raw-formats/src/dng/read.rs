@@ -610,6 +610,19 @@ impl Tiff<'_> {
             calibrations,
             analog_balance: triple(ANALOG_BALANCE, "AnalogBalance")?,
             as_shot_neutral: triple(AS_SHOT_NEUTRAL, "AsShotNeutral")?,
+            as_shot_white_xy: match ifd0.get(AS_SHOT_WHITE_XY) {
+                None => None,
+                Some(e) => match self.numbers(e)?.as_slice() {
+                    [x, y] if *x > 0.0 && *y > 0.0 && x + y < 1.0 => Some([*x, *y]),
+                    v => {
+                        return Err(FormatError::Unsupported {
+                            field: "AsShotWhiteXY",
+                            value: format!("{v:?}"),
+                            supported: "a chromaticity x, y > 0 with x + y < 1",
+                        })
+                    }
+                },
+            },
         })
     }
 }

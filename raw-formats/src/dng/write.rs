@@ -437,6 +437,16 @@ impl Dng {
             millionths("as-shot neutral", n)?;
             entries.push(rational(AS_SHOT_NEUTRAL, &n));
         }
+        if let Some(xy) = self.colour.as_shot_white_xy {
+            if !xy.iter().all(|v| (1e-6..1.0).contains(v)) {
+                return Err(FormatError::OutOfRange {
+                    field: "as-shot white xy",
+                    value: format!("{xy:?}"),
+                    allowed: "a chromaticity in [1e-6, 1)".into(),
+                });
+            }
+            entries.push(rational(AS_SHOT_WHITE_XY, &xy));
+        }
         if let Some(ev) = self.processing.baseline_exposure {
             if !ev.is_finite() || ev.abs() > 100.0 {
                 return Err(FormatError::OutOfRange {
