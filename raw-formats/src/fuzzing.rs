@@ -170,6 +170,17 @@ pub fn seed_corpus() -> Vec<(&'static str, String, Vec<u8>)> {
                 seeds.push(("dng_decode", format!("{name}-{layout}-{order}.dng"), bytes));
             }
         }
+        // The raw in a SubIFD behind a preview, as Adobe's converter writes.
+        if name == "lj92-2c" || name == "packed12" {
+            let options = EncodeOptions {
+                storage,
+                tile: Some((16, 16)),
+                little_endian: true,
+            };
+            let dng = seed_dng(bits, CfaPattern::Rggb, framing);
+            let bytes = dng.encode_with_preview(&options).expect("seed DNGs encode");
+            seeds.push(("dng_decode", format!("{name}-subifd.dng"), bytes));
+        }
     }
     // Tags the writer does not write by itself: linearisation, black-level patterns, an
     // active area.

@@ -1,4 +1,5 @@
-//! Property: the DNG writer's files open in LibRaw (through rawpy) with the same raw samples,
+//! Property: the DNG writer's files (the raw in IFD 0 or in a SubIFD) open in LibRaw (through
+//! rawpy) with the same raw samples,
 //! CFA pattern, black and white levels, colour matrix and as-shot white balance, for random
 //! sizes, patterns, bit depths and levels. LibRaw refuses frames below 22 x 22, so sizes start
 //! there.
@@ -54,6 +55,7 @@ proptest! {
         // whole image (seen at 22 and 30 wide with 32-wide tiles), which real files do not have.
         tile in prop::sample::select(vec![None, Some((16u32, 16u32)), Some((16, 32))]),
         little_endian in any::<bool>(),
+        preview in any::<bool>(),
     ) {
         // Two lossless JPEG components code pairs of CFA columns: an even strip width.
         let width = if storage == 3 { width & !1 } else { width };
@@ -105,14 +107,16 @@ proptest! {
             processing: Default::default(),
         };
         let path = std::env::temp_dir().join(format!("camsim-oracle-{}-{seed}.dng", std::process::id()));
-        std::fs::write(&path, dng.encode_with(&options).unwrap()).unwrap();
+        // The raw in IFD 0, or in a SubIFD behind an RGB preview as Adobe's converter writes.
+        let bytes = if preview { dng.encode_with_preview(&options) } else { dng.encode_with(&options) };
+        std::fs::write(&path, bytes.unwrap()).unwrap();
         let reply = oracle_arrays("rawpy_read", serde_json::json!({"path": path.to_str().unwrap()}), &[]);
         std::fs::remove_file(&path).ok();
         let Some(arrays) = reply else { return Ok(()) };
 
         let samples: Vec<u16> = arrays[0].to_f64().iter().map(|v| *v as u16).collect();
         prop_assert_eq!(arrays[0].shape(), &[height, width]);
-        prop_assert!(samples == dng.image.samples, "raw samples differ ({:?})", options);
+        prop_assert!(samples == dng.image.samples, "raw samples differ ({:?}, preview {})", options, preview);
         // LibRaw's colour indices: 0 R, 1 G, 2 B, 3 the second G.
         let libraw_pattern: Vec<usize> = arrays[1].to_f64().iter().map(|v| *v as usize).collect();
         let ours: Vec<usize> = (0..4).map(|p| PATTERNS[pattern].colour_at(p % 2, p / 2).index()).collect();

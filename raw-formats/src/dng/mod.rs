@@ -645,6 +645,11 @@ mod tests {
                     let bytes = d.encode_with(&options).unwrap();
                     let back = Dng::decode(&bytes).unwrap_or_else(|e| panic!("{options:?}: {e}"));
                     assert_eq!(back, d, "{options:?}");
+                    // The same raw in a SubIFD behind an RGB preview in IFD 0.
+                    let bytes = d.encode_with_preview(&options).unwrap();
+                    let back =
+                        Dng::decode(&bytes).unwrap_or_else(|e| panic!("SubIFD {options:?}: {e}"));
+                    assert_eq!(back, d, "SubIFD {options:?}");
                 }
             }
         }
@@ -654,6 +659,37 @@ mod tests {
             ..EncodeOptions::default()
         };
         assert!(d.encode_with(&narrow).is_err());
+    }
+
+    /// With a preview, IFD 0 is an 8-bit RGB image that is not the raw (NewSubFileType 1) and
+    /// holds the camera-wide tags; the raw is found through SubIFDs with its opcodes.
+    #[test]
+    fn a_raw_in_a_sub_ifd_behind_a_preview_is_found() {
+        let mut d = sample();
+        d.processing.baseline_exposure = Some(0.5);
+        d.processing.opcode_lists[2] = vec![opcodes::Opcode::Other {
+            id: 99,
+            optional: true,
+        }];
+        let bytes = d.encode_with_preview(&EncodeOptions::default()).unwrap();
+        let file = tiff::Tiff::new(&bytes).unwrap();
+        let ifd0 = file.ifd(file.u32_at(4).unwrap() as usize).unwrap();
+        assert!(!file.is_cfa_raw(&ifd0).unwrap());
+        assert!(ifd0.get(SUB_IFDS).is_some() && ifd0.get(COLOR_MATRIX_1).is_some());
+        assert!(ifd0.get(OPCODE_LISTS[2]).is_none());
+        assert_eq!(Dng::decode(&bytes).unwrap(), d);
+        // Without the SubIFD pointer there is no raw to find.
+        let mut broken = bytes.clone();
+        let sub = (0..ifd0_count(&bytes))
+            .map(|i| 10 + 12 * i)
+            .find(|at| u16::from_le_bytes([bytes[*at], bytes[*at + 1]]) == SUB_IFDS)
+            .unwrap();
+        broken[sub..sub + 2].copy_from_slice(&65000u16.to_le_bytes()); // an unknown tag
+        assert!(Dng::decode(&broken).is_err());
+    }
+
+    fn ifd0_count(bytes: &[u8]) -> usize {
+        usize::from(u16::from_le_bytes([bytes[8], bytes[9]]))
     }
 
     #[test]

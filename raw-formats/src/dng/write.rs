@@ -331,6 +331,103 @@ impl Dng {
         options: &EncodeOptions,
         extra: Vec<Entry>,
     ) -> Result<Vec<u8>> {
+        let (entries, segments) = self.ifd_entries(options, extra)?;
+        Ok(layout(entries, &segments, options.little_endian))
+    }
+
+    /// The file's bytes laid out as Adobe's DNG Converter and most cameras do: IFD 0 a small
+    /// 8-bit RGB preview (each 2x2 CFA block one pixel, at most 256 wide) holding the tags that
+    /// describe the camera (make, model, DNG version, orientation, colour, baseline exposure),
+    /// and the raw image, stored as `options` says, in a SubIFD.
+    pub fn encode_with_preview(&self, options: &EncodeOptions) -> Result<Vec<u8>> {
+        let (entries, segments) = self.ifd_entries(options, Vec::new())?;
+        let camera_wide = |tag: u16| {
+            [
+                MAKE,
+                MODEL,
+                ORIENTATION,
+                SOFTWARE,
+                DNG_VERSION,
+                DNG_BACKWARD_VERSION,
+                UNIQUE_CAMERA_MODEL,
+                ANALOG_BALANCE,
+                AS_SHOT_NEUTRAL,
+                AS_SHOT_WHITE_XY,
+                BASELINE_EXPOSURE,
+            ]
+            .contains(&tag)
+                || CALIBRATION_TAGS.iter().any(|c| {
+                    [
+                        c.color_matrix,
+                        c.illuminant,
+                        c.forward_matrix,
+                        c.camera_calibration,
+                    ]
+                    .contains(&tag)
+                })
+        };
+        let (mut ifd0, raw): (Vec<Entry>, Vec<Entry>) =
+            entries.into_iter().partition(|e| camera_wide(e.tag));
+        let image = &self.image;
+        let step = (image.width / 2).div_ceil(256).max(1);
+        let (pw, ph) = (
+            (image.width / 2).div_ceil(step).max(1),
+            (image.height / 2).div_ceil(step).max(1),
+        );
+        let mut preview = Vec::with_capacity(pw * ph * 3);
+        let shift = image.bits.saturating_sub(8);
+        for py in 0..ph {
+            for px in 0..pw {
+                let (x, y) = (
+                    (px * step * 2).min(image.width - 1),
+                    (py * step * 2).min(image.height - 1),
+                );
+                let mut rgb = [0u32; 3];
+                let mut count = [0u32; 3];
+                for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                    let (sx, sy) = (
+                        (x + dx).min(image.width - 1),
+                        (y + dy).min(image.height - 1),
+                    );
+                    let c = image.pattern.colour_at(sx, sy).index();
+                    rgb[c] += u32::from(image.samples[sy * image.width + sx]);
+                    count[c] += 1;
+                }
+                for c in 0..3 {
+                    preview.push(((rgb[c] / count[c].max(1)) >> shift).min(255) as u8);
+                }
+            }
+        }
+        let preview_len = preview.len() as u32;
+        ifd0.extend([
+            long(NEW_SUBFILE_TYPE, &[1]),
+            long(IMAGE_WIDTH, &[pw as u32]),
+            long(IMAGE_LENGTH, &[ph as u32]),
+            short(BITS_PER_SAMPLE, &[8, 8, 8]),
+            short(COMPRESSION, &[1]),
+            short(PHOTOMETRIC, &[2]),
+            long(STRIP_OFFSETS, &[0]),
+            short(SAMPLES_PER_PIXEL, &[3]),
+            long(ROWS_PER_STRIP, &[ph as u32]),
+            long(STRIP_BYTE_COUNTS, &[preview_len]),
+            short(PLANAR_CONFIGURATION, &[1]),
+            long(SUB_IFDS, &[0]),
+        ]);
+        ifd0.sort_by_key(|e| e.tag);
+        let preview = [preview];
+        Ok(layout_ifds(
+            vec![(ifd0, &preview), (raw, &segments)],
+            options.little_endian,
+        ))
+    }
+
+    /// The raw IFD's entries, sorted, with `extra` replacing any of the same tag, and the
+    /// coded strips or tiles.
+    fn ifd_entries(
+        &self,
+        options: &EncodeOptions,
+        extra: Vec<Entry>,
+    ) -> Result<(Vec<Entry>, Vec<Vec<u8>>)> {
         self.check()?;
         let image = &self.image;
         let (w, h) = (image.width as u32, image.height as u32);
@@ -468,7 +565,7 @@ impl Dng {
         entries.retain(|e| extra.iter().all(|x| x.tag != e.tag));
         entries.extend(extra);
         entries.sort_by_key(|e| e.tag);
-        Ok(layout(entries, &segments, options.little_endian))
+        Ok((entries, segments))
     }
 
     /// Writes the file.
@@ -480,26 +577,48 @@ impl Dng {
 
 /// A TIFF file: header, IFD, out-of-line values, then the segments (each starting on an even offset),
 /// with the StripOffsets or TileOffsets entry pointing at them.
-pub(crate) fn layout(mut entries: Vec<Entry>, segments: &[Vec<u8>], little: bool) -> Vec<u8> {
-    let ifd_len = 2 + 12 * entries.len() + 4;
-    let extra_len: usize = entries
-        .iter()
-        .map(|e| e.bytes(little).len())
-        .filter(|n| *n > 4)
-        .map(|n| n.next_multiple_of(2))
-        .sum();
-    let mut at = 8 + ifd_len + extra_len;
-    let offsets: Vec<u32> = segments
-        .iter()
-        .map(|s| {
-            let o = at as u32;
-            at += s.len().next_multiple_of(2);
-            o
-        })
-        .collect();
-    for e in entries.iter_mut() {
-        if e.tag == STRIP_OFFSETS || e.tag == TILE_OFFSETS {
-            e.values = Values::Long(offsets.clone());
+pub(crate) fn layout(entries: Vec<Entry>, segments: &[Vec<u8>], little: bool) -> Vec<u8> {
+    layout_ifds(vec![(entries, segments)], little)
+}
+
+/// A TIFF file of several IFDs, each with its segments: the header, each IFD followed by its
+/// out-of-line values, then every IFD's segments (each starting on an even offset). The
+/// first IFD is IFD 0; the others are its SubIFDs, its SubIFDs entry patched to point at them,
+/// as each IFD's StripOffsets or TileOffsets entry is at its segments.
+pub(crate) fn layout_ifds(mut ifds: Vec<(Vec<Entry>, &[Vec<u8>])>, little: bool) -> Vec<u8> {
+    let out_of_line = |entries: &[Entry]| -> usize {
+        entries
+            .iter()
+            .map(|e| e.bytes(little).len())
+            .filter(|n| *n > 4)
+            .map(|n| n.next_multiple_of(2))
+            .sum()
+    };
+    // Where each IFD starts, then where each segment starts.
+    let mut at = 8;
+    let mut ifd_offsets = Vec::with_capacity(ifds.len());
+    for (entries, _) in &ifds {
+        ifd_offsets.push(at as u32);
+        at += 2 + 12 * entries.len() + 4 + out_of_line(entries);
+    }
+    for (entries, segments) in ifds.iter_mut() {
+        let offsets: Vec<u32> = segments
+            .iter()
+            .map(|s| {
+                let o = at as u32;
+                at += s.len().next_multiple_of(2);
+                o
+            })
+            .collect();
+        for e in entries.iter_mut() {
+            if e.tag == STRIP_OFFSETS || e.tag == TILE_OFFSETS {
+                e.values = Values::Long(offsets.clone());
+            }
+        }
+    }
+    for e in ifds[0].0.iter_mut() {
+        if e.tag == SUB_IFDS {
+            e.values = Values::Long(ifd_offsets[1..].to_vec());
         }
     }
     let u16b = |v: u16| u16_bytes(v, little);
@@ -507,34 +626,38 @@ pub(crate) fn layout(mut entries: Vec<Entry>, segments: &[Vec<u8>], little: bool
     let mut out = Vec::with_capacity(at);
     out.extend_from_slice(if little { b"II*\0" } else { b"MM\0*" });
     out.extend_from_slice(&u32b(8));
-    out.extend_from_slice(&u16b(entries.len() as u16));
-    let mut extra_offset = 8 + ifd_len;
-    let mut extra = Vec::with_capacity(extra_len);
-    for e in &entries {
-        let (kind, count) = e.kind_and_count();
-        let b = e.bytes(little);
-        out.extend_from_slice(&u16b(e.tag));
-        out.extend_from_slice(&u16b(kind));
-        out.extend_from_slice(&u32b(count as u32));
-        if b.len() <= 4 {
-            let mut inline = [0u8; 4];
-            inline[..b.len()].copy_from_slice(&b);
-            out.extend_from_slice(&inline);
-        } else {
-            out.extend_from_slice(&u32b(extra_offset as u32));
-            extra.extend_from_slice(&b);
-            if b.len() % 2 == 1 {
-                extra.push(0);
+    for (entries, _) in &ifds {
+        out.extend_from_slice(&u16b(entries.len() as u16));
+        let mut extra_offset = out.len() + 12 * entries.len() + 4;
+        let mut extra = Vec::new();
+        for e in entries {
+            let (kind, count) = e.kind_and_count();
+            let b = e.bytes(little);
+            out.extend_from_slice(&u16b(e.tag));
+            out.extend_from_slice(&u16b(kind));
+            out.extend_from_slice(&u32b(count as u32));
+            if b.len() <= 4 {
+                let mut inline = [0u8; 4];
+                inline[..b.len()].copy_from_slice(&b);
+                out.extend_from_slice(&inline);
+            } else {
+                out.extend_from_slice(&u32b(extra_offset as u32));
+                extra.extend_from_slice(&b);
+                if b.len() % 2 == 1 {
+                    extra.push(0);
+                }
+                extra_offset += b.len().next_multiple_of(2);
             }
-            extra_offset += b.len().next_multiple_of(2);
         }
+        out.extend_from_slice(&0u32.to_le_bytes()); // no next IFD: SubIFDs are not chained
+        out.extend_from_slice(&extra);
     }
-    out.extend_from_slice(&0u32.to_le_bytes()); // no next IFD
-    out.extend_from_slice(&extra);
-    for s in segments {
-        out.extend_from_slice(s);
-        if s.len() % 2 == 1 {
-            out.push(0);
+    for (_, segments) in &ifds {
+        for s in segments.iter() {
+            out.extend_from_slice(s);
+            if s.len() % 2 == 1 {
+                out.push(0);
+            }
         }
     }
     out
