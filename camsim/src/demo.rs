@@ -486,6 +486,7 @@ pub fn run(
         wb_gains: gains,
         demosaic,
         denoise: if noisy { 0.01 } else { 0.0 },
+        highlight_knee: develop::DEFAULT_HIGHLIGHT_KNEE,
         ccm,
         ..IspConfig::default()
     };

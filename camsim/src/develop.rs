@@ -93,6 +93,10 @@ impl IspReport {
     }
 }
 
+/// The highlight knee `camsim isp` and `camsim demo` use unless told otherwise: the top tenth
+/// of the white-balanced range fades to neutral, so clipped areas come out white.
+pub const DEFAULT_HIGHLIGHT_KNEE: f32 = 0.9;
+
 /// A raw frame to develop and what its file says beyond the samples.
 #[derive(Debug, Clone)]
 pub struct RawInput {
@@ -347,6 +351,7 @@ pub fn develop(
         demosaic,
         distortion,
         denoise: options.denoise.unwrap_or(0.0),
+        highlight_knee: options.highlight_knee.unwrap_or(DEFAULT_HIGHLIGHT_KNEE),
         ccm,
         tone: options.look.unwrap_or(Look::Neutral).tone(),
     };
@@ -430,6 +435,8 @@ pub fn execute(
     steps.push(("gain", config.gain != 1.0, false, c));
     c.wb_gains = config.wb_gains;
     steps.push(("white balance", config.wb_gains != [1.0; 3], false, c));
+    c.highlight_knee = config.highlight_knee;
+    steps.push(("highlights", config.highlight_knee < 1.0, true, c));
     c.distortion = config.distortion;
     let lens_on = config.distortion.is_some_and(|d| !d.is_identity());
     steps.push(("distortion correction", lens_on, true, c));

@@ -13,6 +13,7 @@
 //! ccm = [[1.6, -0.4, -0.2], [-0.3, 1.5, -0.2], [0.0, -0.5, 1.5]]
 //! demosaic = "mhc"
 //! denoise = 0.02
+//! highlight-knee = 0.9             # clipped colour fades to neutral above it; 1 is off
 //! dpc-threshold = 400
 //! defects = [[10, 20], [11, 20]]   # static defective pixels, [x, y]
 //! look = "vivid"
@@ -191,6 +192,8 @@ pub struct IspOptions {
     pub crop: Option<CropChoice>,
     /// Whether a DNG's BaselineExposure is applied (as gain).
     pub baseline_exposure: Option<bool>,
+    /// Highlight knee in `[0, 1]` (1 is off): colour fades to neutral above it.
+    pub highlight_knee: Option<f32>,
 }
 
 /// Which part of the raw's active area the developed image shows.
@@ -237,6 +240,7 @@ impl IspOptions {
             camera_matrix: self.camera_matrix.or(fallback.camera_matrix),
             crop: self.crop.or(fallback.crop),
             baseline_exposure: self.baseline_exposure.or(fallback.baseline_exposure),
+            highlight_knee: self.highlight_knee.or(fallback.highlight_knee),
         }
     }
 }
@@ -355,7 +359,7 @@ pub fn camera_matrix(values: Vec<f64>, what: &str) -> Result<[f64; 4]> {
 }
 
 /// The file's keys, each the name of a flag (or a table the command line has no flag for).
-const KEYS: [&str; 20] = [
+const KEYS: [&str; 21] = [
     "pattern",
     "bits",
     "black-level",
@@ -376,6 +380,7 @@ const KEYS: [&str; 20] = [
     "camera-matrix",
     "crop",
     "baseline-exposure",
+    "highlight-knee",
 ];
 
 /// One value of the file, with where it is for error messages.
@@ -537,6 +542,7 @@ pub fn from_toml(text: &str, file: &Path) -> Result<IspOptions> {
             }
             "crop" => options.crop = Some(f.check(crop(f.string()?, key))?),
             "baseline-exposure" => options.baseline_exposure = Some(f.boolean()?),
+            "highlight-knee" => options.highlight_knee = Some(f.scalar()? as f32),
             other => {
                 return Err(f.error(format!(
                     "unknown key {other:?}; known keys: {}",

@@ -40,8 +40,9 @@ fn isp_writes_an_srgb_image_and_reports_stages_and_times() {
         ]);
         assert!(ok, "{stderr}");
         assert!(
-            stdout.contains("stages: black level -> white balance -> bilinear -> sRGB encode")
-                || stdout.contains("stages: black level -> bilinear -> sRGB encode"),
+            stdout.contains(
+                "stages: black level -> white balance -> bilinear -> highlights -> sRGB encode"
+            ) || stdout.contains("stages: black level -> bilinear -> highlights -> sRGB encode"),
             "{stdout}"
         );
         assert!(
@@ -177,7 +178,7 @@ camera-matrix = [36.0, 36.0, 19.5, 14.5]
     ]);
     assert!(ok, "{stderr}");
     assert!(
-        stdout.contains("stages: black level -> defective pixels -> gain -> white balance -> mhc -> distortion correction -> denoise -> colour matrix -> tone -> sRGB encode"),
+        stdout.contains("stages: black level -> defective pixels -> gain -> white balance -> mhc -> highlights -> distortion correction -> denoise -> colour matrix -> tone -> sRGB encode"),
         "{stdout}"
     );
     assert!(stdout.contains("path: fixed"), "{stdout}");
@@ -283,7 +284,7 @@ gains = [[1.5, 1.5, 1.5, 1.5], [1.0, 1.0, 1.0, 1.0], [1.0, 1.0, 1.0, 1.0], [1.5,
     assert!(ok, "{stderr}");
     assert!(
         stdout.contains(
-            "stages: black level -> defective pixels -> lens shading -> bilinear -> sRGB encode"
+            "stages: black level -> defective pixels -> lens shading -> bilinear -> highlights -> sRGB encode"
         ),
         "{stdout}"
     );

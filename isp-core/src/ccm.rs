@@ -177,9 +177,9 @@ pub struct ChosenCcm {
     pub ccm: [[f32; 3]; 3],
 }
 
-/// Passes of the neutral-to-white iteration before it settles for the mean of the last two, as
-/// the DNG SDK does; real calibrations converge to 1e-12 in well under ten.
-const WHITE_SEARCH_PASSES: usize = 50;
+/// Most passes of the neutral-to-white iteration; real calibrations converge to 1e-12 in well
+/// under ten, and damping (see [`Calibration::neutral_to_xy`]) keeps the slow ones within this.
+const WHITE_SEARCH_PASSES: usize = 100;
 
 /// A camera's colour calibration under one or two illuminants, as a DNG camera profile states
 /// it: for each illuminant a ColorMatrix (XYZ to reference camera), a CameraCalibration
@@ -351,7 +351,10 @@ impl Calibration {
     /// The chromaticity of a camera neutral (the illuminant's colour in camera RGB, as a DNG's
     /// AsShotNeutral states it or AWB estimates it). The matrix that maps it to XYZ depends
     /// on the temperature it is sought at, so this iterates from D50: the neutral through the
-    /// matrix at the last estimate's temperature, until the estimate stops moving.
+    /// matrix at the last estimate's temperature, until the estimate stops moving (to 1e-12).
+    /// Where the estimate overshoots back and forth (a white far from the locus, where the
+    /// matrices change fast with temperature), a step that reverses the last is halved, which
+    /// turns a slowly alternating sequence into a fast one.
     pub fn neutral_to_xy(&self, neutral: [f64; 3]) -> Result<[f64; 2], IspError> {
         if !neutral.iter().all(|v| v.is_finite() && *v > 0.0) {
             return Err(IspError::InvalidParameter {
@@ -360,17 +363,18 @@ impl Calibration {
             });
         }
         let mut xy = colour::D50_XY;
-        for pass in 0..WHITE_SEARCH_PASSES {
+        let mut last_step = [0.0; 2];
+        for _ in 0..WHITE_SEARCH_PASSES {
             let to_xyz = self.camera_to_xyz(colour::xy_to_cct_robertson(xy)?)?;
             let next = colour::xyz_to_xy(colour::mat3_mul_vec(&to_xyz, neutral))?;
-            if (next[0] - xy[0]).abs() + (next[1] - xy[1]).abs() < 1e-12 {
+            let step = [next[0] - xy[0], next[1] - xy[1]];
+            if step[0].abs() + step[1].abs() < 1e-12 {
                 return Ok(next);
             }
-            xy = if pass + 1 == WHITE_SEARCH_PASSES {
-                [(xy[0] + next[0]) / 2.0, (xy[1] + next[1]) / 2.0]
-            } else {
-                next
-            };
+            let reversed = step[0] * last_step[0] + step[1] * last_step[1] < 0.0;
+            let scale = if reversed { 0.5 } else { 1.0 };
+            xy = [xy[0] + scale * step[0], xy[1] + scale * step[1]];
+            last_step = step;
         }
         Ok(xy)
     }

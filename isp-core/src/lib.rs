@@ -32,6 +32,7 @@ pub mod denoise;
 pub mod distortion;
 pub mod dpc;
 pub mod frame;
+pub mod highlights;
 pub mod lsc;
 mod math;
 pub mod metrics;

@@ -12,6 +12,7 @@
 //! x    = min(gain * x, 1)                           ISO / digital gain
 //! x_c  = min(wb_c * x_c, 1)                         white balance per CFA colour, clipped at white
 //! rgb  = demosaic(x)                                reflect-101 borders, clamped to [0, 1]
+//! rgb  = highlights(rgb, x)                         colour near clipping fades to neutral (highlights module)
 //! rgb  = undistort(rgb)                             lens distortion correction, off by default
 //! rgb  = denoise(rgb)                               identity at strength 0
 //! lin  = clamp(CCM * rgb, 0, 1)
@@ -31,7 +32,9 @@
 //! [`FixedPipeline`] computes the same with integers: linear pixels are `u16` with 65535 = 1.0
 //! from black level subtraction on; normalisation by a Q16 reciprocal of `white - black`; the
 //! shading gain in Q4.16 interpolated from the Q4.12 grid; ISO gain and white-balance gains in
-//! unsigned Q4.10 (the gain up to 64 in Q6.10); demosaicing with the integer kernels;
+//! unsigned Q16 (so a gained sample is the float one to well under a code, which the
+//! highlight stage needs: it turns a bright neighbour's relative error into a dark channel's
+//! absolute one); demosaicing with the integer kernels;
 //! distortion correction with the same source positions and integer weights over 1024; denoise
 //! with Q12 range weights; the CCM in signed Q4.16; saturation as a Q16 matrix; contrast and
 //! curve through [`ToneLut`]; encoding through [`EncodeLut`]. Every step rounds to nearest and
@@ -85,12 +88,12 @@ use crate::frame::{RawFrame, RgbViewMut, Sample};
 use crate::lsc::{LensShading, MAX_GRID_SIDE};
 use crate::srgb::{self, EncodeLut};
 use crate::tone::{Tone, ToneLut};
-use crate::{ccm, denoise, wb, IspError};
+use crate::{ccm, denoise, highlights, wb, IspError};
 
 /// Largest ISO / digital gain (exclusive).
 pub const MAX_GAIN: f32 = 64.0;
 /// Fractional bits of the fixed path's gains (ISO and white balance).
-pub const GAIN_FRAC_BITS: u32 = 10;
+pub const GAIN_FRAC_BITS: u32 = 16;
 /// Fractional bits of the fixed path's CCM.
 /// Fractional bits of the fixed path's CCM: signed Q4.16. Finer than PiSP's Q4.10 because
 /// coefficients that cancel (`1.3 R - 0.3 G` on a dark red next to bright green) leave a
@@ -126,6 +129,10 @@ pub struct IspConfig<'a> {
     pub distortion: Option<LensDistortion>,
     /// Denoise strength, `[0, 1]` (linear units; 0 is off).
     pub denoise: f32,
+    /// Highlight knee, `[0, 1]`: a demosaiced pixel whose largest channel, or largest 3x3
+    /// white-balanced raw sample around it, is above the knee fades to neutral, fully at the
+    /// clip level 1 ([`crate::highlights`]); 1 is off.
+    pub highlight_knee: f32,
     /// Camera RGB (white-balanced) to linear sRGB, coefficients in `[-8, 8)`.
     pub ccm: [[f32; 3]; 3],
     /// Photo-finishing.
@@ -145,6 +152,7 @@ impl Default for IspConfig<'_> {
             demosaic: Method::Bilinear,
             distortion: None,
             denoise: 0.0,
+            highlight_knee: 1.0,
             ccm: IDENTITY,
             tone: Tone::default(),
         }
@@ -172,6 +180,12 @@ impl IspConfig<'_> {
             return Err(IspError::InvalidParameter {
                 name: "denoise strength",
                 allowed: "[0, 1]",
+            });
+        }
+        if !(0.0..=1.0).contains(&self.highlight_knee) {
+            return Err(IspError::InvalidParameter {
+                name: "highlight knee",
+                allowed: "[0, 1] (1 is off)",
             });
         }
         ccm::validate(&self.ccm)?;
@@ -279,6 +293,10 @@ trait Path {
         dpc: &[u16],
         out: &mut [Self::P],
     );
+    /// Whether the highlight stage is on.
+    fn highlights_on(&self) -> bool;
+    /// The highlight stage on a demosaiced pixel with the 3x3 raw samples around it.
+    fn highlights(&self, rgb: [Self::P; 3], neighbourhood: [Self::P; 9]) -> [Self::P; 3];
     /// Denoise (or pass through) pixel `x` of the middle row.
     fn filtered(&self, rows: [&[Self::P]; 3], x: usize) -> [Self::P; 3];
     /// CCM, tone and encoding.
@@ -362,6 +380,15 @@ impl Path for FloatPipeline<'_> {
         }
     }
 
+    fn highlights_on(&self) -> bool {
+        self.config.highlight_knee < 1.0
+    }
+
+    fn highlights(&self, rgb: [f32; 3], neighbourhood: [f32; 9]) -> [f32; 3] {
+        let n = neighbourhood.iter().fold(0.0f32, |a, b| a.max(*b));
+        highlights::neutralise_f32(rgb, n, self.config.highlight_knee)
+    }
+
     fn filtered(&self, rows: [&[f32]; 3], x: usize) -> [f32; 3] {
         if self.config.denoise > 0.0 {
             denoise::pixel_f32(rows, x, self.config.denoise)
@@ -388,17 +415,18 @@ pub struct FixedPipeline<'a> {
     lsc: Option<LensShading<'a>>,
     method: Method,
     distortion: Option<LensDistortion>,
-    gain_q10: Option<u32>,
-    wb_q10: Option<[u32; 3]>,
+    gain_q16: Option<u64>,
+    wb_q16: Option<[u64; 3]>,
     inverse_denoise: Option<u64>,
+    highlights: Option<highlights::KneeQ16>,
     ccm_q: Option<[[i32; 3]; 3]>,
     saturation_q: Option<[[i32; 3]; 3]>,
     tone_lut: Option<ToneLut>,
     encode: EncodeLut,
 }
 
-fn to_q10(v: f32) -> u32 {
-    (v * (1 << GAIN_FRAC_BITS) as f32 + 0.5) as u32
+fn to_q16(v: f32) -> u64 {
+    (f64::from(v) * (1u64 << GAIN_FRAC_BITS) as f64 + 0.5) as u64
 }
 
 impl<'a> FixedPipeline<'a> {
@@ -412,10 +440,12 @@ impl<'a> FixedPipeline<'a> {
             lsc: config.lsc,
             method: config.demosaic,
             distortion: config.active_distortion().copied(),
-            gain_q10: (config.gain != 1.0).then(|| to_q10(config.gain)),
-            wb_q10: (config.wb_gains != [1.0; 3]).then(|| config.wb_gains.map(to_q10)),
+            gain_q16: (config.gain != 1.0).then(|| to_q16(config.gain)),
+            wb_q16: (config.wb_gains != [1.0; 3]).then(|| config.wb_gains.map(to_q16)),
             inverse_denoise: (config.denoise > 0.0)
                 .then(|| denoise::inverse_strength_q16(config.denoise)),
+            highlights: (config.highlight_knee < 1.0)
+                .then(|| highlights::KneeQ16::new(config.highlight_knee)),
             ccm_q: (ccm_q != identity_q).then_some(ccm_q),
             saturation_q: (!config.tone.saturation_is_identity())
                 .then(|| ccm::quantise(&config.tone.saturation_matrix(), SATURATION_FRAC_BITS)),
@@ -495,15 +525,26 @@ impl Path for FixedPipeline<'_> {
             if let Some(lsc) = &self.lsc {
                 t = (t >> 16) * lsc.gain_q16(&nodes, x, w);
             }
-            let mut v = ((t + (1 << 15)) >> 16).min(65535) as u32;
-            if let Some(g) = self.gain_q10 {
-                v = ((v * g + (1 << 9)) >> GAIN_FRAC_BITS).min(65535);
+            let mut v = ((t + (1 << 15)) >> 16).min(65535);
+            if let Some(g) = self.gain_q16 {
+                v = ((v * g + (1 << 15)) >> GAIN_FRAC_BITS).min(65535);
             }
-            if let Some(wb) = &self.wb_q10 {
+            if let Some(wb) = &self.wb_q16 {
                 let g = wb[pattern.colour_at(x, y).index()];
-                v = ((v * g + (1 << 9)) >> GAIN_FRAC_BITS).min(65535);
+                v = ((v * g + (1 << 15)) >> GAIN_FRAC_BITS).min(65535);
             }
             *o = v as u16;
+        }
+    }
+
+    fn highlights_on(&self) -> bool {
+        self.highlights.is_some()
+    }
+
+    fn highlights(&self, rgb: [u16; 3], neighbourhood: [u16; 9]) -> [u16; 3] {
+        match &self.highlights {
+            Some(knee) => knee.neutralise(rgb, neighbourhood.iter().copied().max().unwrap_or(0)),
+            None => rgb,
         }
     }
 
@@ -619,14 +660,25 @@ impl<A: Path> Engine<'_, '_, A> {
             &ring[slot * w..(slot + 1) * w]
         });
         let slot = ry % self.demosaic_slots;
+        let out = &mut self.demosaic_ring[slot * 3 * w..(slot + 1) * 3 * w];
         demosaic::row(
             self.path.method(),
             source,
             ry,
             h,
             raw.mosaic().pattern(),
-            &mut self.demosaic_ring[slot * 3 * w..(slot + 1) * 3 * w],
-        )
+            out,
+        )?;
+        if self.path.highlights_on() {
+            for (x, px) in out.chunks_exact_mut(3).enumerate() {
+                let columns = [-1isize, 0, 1].map(|dx| reflect(x as isize + dx, w));
+                let neighbourhood: [A::P; 9] =
+                    core::array::from_fn(|i| source[1 + i / 3][columns[i % 3]]);
+                let rgb = self.path.highlights([px[0], px[1], px[2]], neighbourhood);
+                px.copy_from_slice(&rgb);
+            }
+        }
+        Ok(())
     }
 }
 

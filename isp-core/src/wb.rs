@@ -4,7 +4,7 @@
 //! The gains multiply the mosaic before demosaicing (in the pipeline, after the ISO gain), and
 //! each product is clipped at 1, the white point, so a clipped highlight stays neutral: all
 //! three channels end at 1. Gains are in RGB order, normalised so green is 1, in `[0, 16)`
-//! (the fixed path holds them in unsigned Q4.10).
+//! (the fixed path holds them in unsigned Q16).
 //!
 //! AWB is control code, as in a real ISP's statistics block plus its CPU-side algorithm: it runs
 //! in `f32`/`f64` over 2x2 superpixels of the black-subtracted, normalised raw frame (each block
@@ -27,7 +27,7 @@ use crate::colour::{self, Mat3};
 use crate::frame::RawFrame;
 use crate::{math, IspError};
 
-/// Largest white-balance gain (exclusive), the range of unsigned Q4.10.
+/// Largest white-balance gain (exclusive), the range of unsigned Q4.10 in firmware ISPs (PiSP).
 pub const MAX_GAIN: f32 = 16.0;
 /// Samples at or above this fraction of white mark a block as clipped for AWB.
 pub const CLIP_FRACTION: f32 = 0.98;

@@ -89,6 +89,7 @@ fn full_pipeline_run_allocates_nothing() {
         demosaic: Method::Mhc,
         distortion: Some(lens),
         denoise: 0.05,
+        highlight_knee: 0.9,
         ccm: [[1.5, -0.3, -0.2], [-0.2, 1.4, -0.2], [0.0, -0.4, 1.4]],
         tone: Tone {
             saturation: 1.2,

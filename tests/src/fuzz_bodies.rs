@@ -161,6 +161,8 @@ pub fn isp_pipeline(data: &[u8]) {
         wb_gains: [wb as f32, 1.0, 1.0],
         demosaic: method,
         denoise: denoise as f32,
+        // Every knee in [0, 1] in steps of 1/127, the top one off.
+        highlight_knee: f32::from(head[11] >> 1) / 127.0,
         distortion: lens.filter(|_| head[10] & 1 == 1),
         ..IspConfig::default()
     };

@@ -94,6 +94,8 @@ pub struct Settings {
     /// See the pipeline docs.
     pub denoise: f32,
     /// See the pipeline docs.
+    pub highlight_knee: f32,
+    /// See the pipeline docs.
     pub ccm: [[f32; 3]; 3],
     /// See the pipeline docs.
     pub tone: Tone,
@@ -120,6 +122,7 @@ impl Settings {
             demosaic: self.method,
             distortion: self.distortion,
             denoise: self.denoise,
+            highlight_knee: self.highlight_knee,
             ccm: self.ccm,
             tone: self.tone,
         }
@@ -134,6 +137,7 @@ impl Settings {
             gain: 1.0,
             wb: [1.0; 3],
             denoise: 0.0,
+            highlight_knee: 1.0,
             ccm: isp_core::pipeline::IDENTITY,
             tone: Tone::default(),
             method: Method::Bilinear,
@@ -399,6 +403,30 @@ pub fn reference(f: &Frame, s: &Settings) -> Vec<[f64; 3]> {
         }
     }
     let rgb = bilinear_reference(&m, f);
+    // Highlights: each channel towards the largest, in proportion to how far the largest of
+    // the pixel's channels and the 3x3 prepared mosaic around it is from the knee to the clip.
+    let knee = s.highlight_knee as f64;
+    let rgb: Vec<[f64; 3]> = rgb
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let (x, y) = (i % f.w, i / f.w);
+            let top = p[0].max(p[1]).max(p[2]);
+            let mut level = top;
+            for dy in -1..=1i64 {
+                for dx in -1..=1i64 {
+                    let (nx, ny) = (mirror(x as i64 + dx, f.w), mirror(y as i64 + dy, f.h));
+                    level = level.max(m[ny * f.w + nx]);
+                }
+            }
+            if knee < 1.0 && level > knee {
+                let k = ((level - knee) / (1.0 - knee)).min(1.0);
+                p.map(|v| v + k * (top - v))
+            } else {
+                *p
+            }
+        })
+        .collect();
     let rgb = match &s.distortion {
         Some(lens) => undistort_reference(&rgb, f.w, f.h, lens),
         None => rgb,

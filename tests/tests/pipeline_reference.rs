@@ -115,6 +115,7 @@ fn settings_strategy(w: usize, h: usize) -> impl Strategy<Value = Settings> {
             any::<bool>(),
             0usize..3,
             proptest::option::of(lens(w, h)),
+            prop_oneof![Just(1.0f32), 0.3f32..1.0],
         ),
     )
         .prop_map(
@@ -127,7 +128,7 @@ fn settings_strategy(w: usize, h: usize) -> impl Strategy<Value = Settings> {
                 wb,
                 denoise,
                 ccm,
-                (sat, contrast, curve, method, distortion),
+                (sat, contrast, curve, method, distortion, highlight_knee),
             )| {
                 let mut defects: Vec<Defect> =
                     defects.into_iter().map(|(x, y)| Defect { x, y }).collect();
@@ -146,6 +147,7 @@ fn settings_strategy(w: usize, h: usize) -> impl Strategy<Value = Settings> {
                     gain,
                     wb,
                     denoise,
+                    highlight_knee,
                     ccm,
                     tone: Tone {
                         saturation: sat,
@@ -234,6 +236,7 @@ fn busy_settings() -> Settings {
         gain: 1.5,
         wb: [2.0, 1.0, 1.6],
         denoise: 0.05,
+        highlight_knee: 0.85,
         ccm: [[1.6, -0.4, -0.2], [-0.3, 1.5, -0.2], [0.0, -0.5, 1.5]],
         tone: isp_core::tone::Look::Vivid.tone(),
         method: Method::Bilinear,

@@ -120,6 +120,7 @@ fn pipeline_runs() -> bool {
     let config = IspConfig {
         demosaic: isp_core::demosaic::Method::Mhc,
         denoise: 0.05,
+        highlight_knee: 0.9,
         ..IspConfig::default()
     };
     let Ok(pipeline) = FixedPipeline::new(&config, 8) else {

@@ -71,6 +71,11 @@ pub struct IspArgs {
     /// Denoise strength in linear units, [0, 1]; 0 is off [default: 0].
     #[arg(long)]
     pub denoise: Option<f32>,
+    /// Highlight knee, [0, 1]: a white-balanced pixel whose largest channel passes it fades to
+    /// neutral, fully at the clip, so clipped highlights come out white rather than magenta or
+    /// speckled; 1 is off [default: 0.9].
+    #[arg(long)]
+    pub highlight_knee: Option<f32>,
     /// Dynamic defective-pixel threshold in raw units [default: off].
     #[arg(long)]
     pub dpc_threshold: Option<u16>,
@@ -142,6 +147,7 @@ impl IspArgs {
                 .transpose()?,
             crop: self.crop.map(Into::into),
             baseline_exposure: self.no_baseline_exposure.then_some(false),
+            highlight_knee: self.highlight_knee,
         })
     }
 
