@@ -222,26 +222,29 @@ pub fn xy_to_cct_robertson(xy: [f64; 2]) -> Result<f64, IspError> {
         });
     }
     let (u, v) = (4.0 * x / denominator, 6.0 * y / denominator);
+    // The first line (from the second row) the point is not beyond, with its distance and the
+    // previous line's; past the last line, the last (saturating at 600 mired).
     let last = ROBERTSON_1968.len() - 1;
     let mut previous_distance = 0.0;
-    for i in 1..=last {
+    let mut i = 1;
+    let distance = loop {
         let [_, u_i, v_i, slope] = ROBERTSON_1968[i];
         let length = math::sqrt(1.0 + slope * slope);
         // Signed distance from the isotemperature line; it turns negative past the line.
         let distance = (v - v_i) / length - (u - u_i) * slope / length;
         if distance <= 0.0 || i == last {
-            let distance = -distance.min(0.0);
-            let f = if i == 1 {
-                0.0
-            } else {
-                distance / (previous_distance + distance)
-            };
-            let mired = ROBERTSON_1968[i - 1][0] * f + ROBERTSON_1968[i][0] * (1.0 - f);
-            return Ok(1e6 / mired);
+            break -distance.min(0.0);
         }
         previous_distance = distance;
-    }
-    Ok(1e6 / ROBERTSON_1968[last][0])
+        i += 1;
+    };
+    let f = if i == 1 {
+        0.0
+    } else {
+        distance / (previous_distance + distance)
+    };
+    let mired = ROBERTSON_1968[i - 1][0] * f + ROBERTSON_1968[i][0] * (1.0 - f);
+    Ok(1e6 / mired)
 }
 
 /// Chromaticity of the CIE daylight (D-series) illuminant of correlated colour temperature

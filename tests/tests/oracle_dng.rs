@@ -273,20 +273,7 @@ fn real_dngs_develop_like_libraw() {
         let Some(arrays) = reply else { return };
         let (h, w) = (ours.height, ours.width);
         assert_eq!(arrays[0].shape(), &[h, w, 3], "{name}");
-        let theirs = arrays[0].to_f64();
-        let mut squared = 0.0;
-        let mut n = 0usize;
-        for y in 4..h - 4 {
-            for x in 4..w - 4 {
-                for c in 0..3 {
-                    let i = (y * w + x) * 3 + c;
-                    let d = f64::from(ours.data[i]) - theirs[i];
-                    squared += d * d;
-                    n += 1;
-                }
-            }
-        }
-        let psnr = 10.0 * (255.0f64.powi(2) / (squared / n as f64)).log10();
+        let psnr = psnr_inside(&ours, &arrays[0].to_f64(), 4);
         println!("{name}: {psnr:.2} dB against LibRaw's development");
         assert!(psnr >= least_db, "{name}: {psnr:.2} dB against LibRaw");
         // The default framing is the file's DefaultCrop.
