@@ -490,8 +490,8 @@ pub fn run(
         ccm,
         ..IspConfig::default()
     };
-    let (float_report, float_rgb) = develop::execute(&raw_back, &isp_config, false, 8)?;
-    let (fixed_report, fixed_rgb) = develop::execute(&raw_back, &isp_config, true, 8)?;
+    let (float_report, float_rgb) = develop::execute(raw_back.into(), &isp_config, false, 8)?;
+    let (fixed_report, fixed_rgb) = develop::execute(raw_back.into(), &isp_config, true, 8)?;
     let to8 = |img: &Image| Image {
         bits: 8,
         ..img.clone()

@@ -1,4 +1,5 @@
-//! Developing a raw frame on the host: a [`RawImage`] (from a DNG or a PNG/PGM mosaic) and
+//! Developing a raw frame on the host: a [`RawImage`] (from a DNG or a PNG/PGM mosaic; a
+//! LinearRaw DNG's already demosaiced frame skips defect correction and demosaicing) and
 //! [`IspOptions`] (flags, a config file, a DNG's tags) become an isp-core [`IspConfig`], run
 //! through the float or fixed pipeline to an sRGB [`Image`], with a report of the stages, the
 //! AWB estimate and the time each stage costs. `camsim isp` and `camsim demo` both run it.
@@ -15,9 +16,9 @@ use isp_core::colour::LINEAR_SRGB_TO_XYZ;
 use isp_core::demosaic::Method;
 use isp_core::distortion::{BrownConrady, LensDistortion};
 use isp_core::dpc::DpcConfig;
-use isp_core::frame::{RawFrame, RgbViewMut};
+use isp_core::frame::{LinearFrame, RawFrame, RgbViewMut};
 use isp_core::lsc::LensShading;
-use isp_core::pipeline::{FixedPipeline, FloatPipeline, IspConfig, OutputSample};
+use isp_core::pipeline::{FixedPipeline, FloatPipeline, Input, IspConfig, OutputSample};
 use isp_core::tone::Look;
 use isp_core::wb::{self, AwbEstimate};
 use isp_core::IspError;
@@ -114,8 +115,9 @@ pub struct RawInput {
     /// The file's BaselineExposure in EV, applied as gain unless turned off.
     pub baseline_exposure: Option<f64>,
     /// The opcodes the file lists that the pipeline does not apply (all but the bad-pixel
-    /// lists, OpcodeList2's GainMaps and the first WarpRectilinear of OpcodeList3 that OpenCV's
-    /// model expresses), by name and whether optional.
+    /// lists of a CFA image, OpcodeList2's GainMaps and the first WarpRectilinear of
+    /// OpcodeList3 that OpenCV's model expresses; OpcodeList2's maps the reader has applied),
+    /// by name and whether optional.
     pub opcodes_not_applied: Vec<(&'static str, bool)>,
 }
 
@@ -159,7 +161,7 @@ impl RawInput {
             return Err(FormatError::Unsupported {
                 field: "DNG opcode not marked optional",
                 value,
-                supported: "GainMap, FixBadPixelsConstant, FixBadPixelsList and WarpRectilinear are known; optional ones are skipped with a note",
+                supported: "GainMap, FixBadPixelsConstant, FixBadPixelsList, WarpRectilinear, MapTable and MapPolynomial are known; optional ones are skipped with a note",
             }
             .in_file(path));
         }
@@ -172,10 +174,15 @@ impl RawInput {
             .find(|op| as_opencv(op).is_some());
         let warp = warp_op.and_then(as_opencv);
         let image = &dng.image;
+        let linear = image.is_linear();
         let defaults = IspOptions {
-            pattern: Some(image.pattern),
+            pattern: (!linear).then_some(image.pattern),
             bits: Some(image.bits),
-            black_level: Some(image.black_level.to_vec()),
+            black_level: Some(if linear {
+                image.black_level[..3].to_vec()
+            } else {
+                image.black_level.to_vec()
+            }),
             white_level: Some(image.white_level),
             white_balance: dng
                 .colour
@@ -204,10 +211,12 @@ impl RawInput {
                 .enumerate()
                 .flat_map(|(i, list)| list.iter().map(move |op| (i, op)))
                 .filter(|(list, op)| {
-                    let bad_pixels = matches!(
-                        op,
-                        Opcode::FixBadPixelsConstant { .. } | Opcode::FixBadPixelsList { .. }
-                    );
+                    // The reader resolves bad-pixel opcodes for a CFA image only.
+                    let bad_pixels = !linear
+                        && matches!(
+                            op,
+                            Opcode::FixBadPixelsConstant { .. } | Opcode::FixBadPixelsList { .. }
+                        );
                     let shading = *list == 1 && matches!(op, Opcode::GainMap(g) if g.plane == 0);
                     let applied_warp = warp_op.is_some_and(|applied| std::ptr::eq(applied, *op));
                     !(bad_pixels || shading || applied_warp)
@@ -252,6 +261,7 @@ pub fn develop(
     let options = options.clone().or(input.defaults.clone());
     let calibration = calibration.or(input.calibration);
     let image = &input.raw;
+    let linear = image.is_linear();
     let pattern = options.pattern.unwrap_or(image.pattern);
     let bits = options.bits.unwrap_or(input.container_bits);
     if !(8..=16).contains(&bits) || bits > input.container_bits {
@@ -269,12 +279,29 @@ pub fn develop(
         return Err(Error::SampleRange { sample: *v, bits });
     }
     let black = options.black_level.clone().unwrap_or(vec![0]);
-    let black: [u16; 4] = std::array::from_fn(|i| black[if black.len() == 1 { 0 } else { i }]);
+    if linear && !matches!(black.len(), 1 | 3) {
+        return Err(Error::Option {
+            option: "--black-level",
+            value: format!("{black:?}"),
+            allowed: "one value, or one per channel R, G, B for a linear DNG".into(),
+        });
+    }
+    let black: [u16; 4] =
+        std::array::from_fn(|i| black[if black.len() == 1 { 0 } else { i % black.len() }]);
     let white = options.white_level.unwrap_or(max);
     let (w, h) = (image.width, image.height);
-    let raw = RawFrame::new(&image.samples, w, h, w, bits, pattern, black, white).map_err(|e| {
-        Error::in_stage("raw frame (check --bits, --black-level, --white-level)", e)
-    })?;
+    let frame_error =
+        |e| Error::in_stage("raw frame (check --bits, --black-level, --white-level)", e);
+    let raw: Input<'_> = if linear {
+        let black = [black[0], black[1], black[2]];
+        LinearFrame::new(&image.samples, w, h, 3 * w, bits, black, [white; 3])
+            .map_err(frame_error)?
+            .into()
+    } else {
+        RawFrame::new(&image.samples, w, h, w, bits, pattern, black, white)
+            .map_err(frame_error)?
+            .into()
+    };
 
     let mut awb = None;
     let wb_gains = match options.white_balance {
@@ -284,8 +311,11 @@ pub fn develop(
                 Some(c) => c.camera_to_xyz(6504.0)?,
                 None => LINEAR_SRGB_TO_XYZ,
             };
-            let mut est =
-                wb::estimate(&raw, method, &to_xyz).map_err(|e| Error::in_stage("--awb", e))?;
+            let mut est = match &raw {
+                Input::Mosaic(raw) => wb::estimate(raw, method, &to_xyz),
+                Input::Linear(frame) => wb::estimate_linear(frame, method, &to_xyz),
+            }
+            .map_err(|e| Error::in_stage("--awb", e))?;
             if let Some(c) = &calibration {
                 est.cct_k = c.cct_of_neutral(est.neutral)?;
             }
@@ -358,7 +388,7 @@ pub fn develop(
     config.validate()?;
     let fixed = options.fixed.unwrap_or(false);
     let out_bits = options.out_bits.unwrap_or(8);
-    let (mut report, rgb) = execute(&raw, &config, fixed, out_bits)?;
+    let (mut report, rgb) = execute(raw, &config, fixed, out_bits)?;
     report.awb = awb;
     report.baseline_exposure = baseline_ev;
     let (rgb, framing) = frame(rgb, &input.framing, options.crop.unwrap_or_default())?;
@@ -396,18 +426,19 @@ fn frame(
     Ok((rgb, (!done.is_empty()).then(|| done.join("; "))))
 }
 
-/// Runs the pipeline on `raw` with `config` (float or fixed path, 8- or 16-bit output) and
-/// times each stage by ablation; returns the report (with no AWB estimate) and the image.
+/// Runs the pipeline on `raw` (a mosaic, or a linear frame that skips demosaicing) with
+/// `config` (float or fixed path, 8- or 16-bit output) and times each stage by ablation;
+/// returns the report (with no AWB estimate) and the image.
 pub fn execute(
-    raw: &RawFrame<'_>,
+    raw: Input<'_>,
     config: &IspConfig<'_>,
     fixed: bool,
     out_bits: u8,
 ) -> Result<(IspReport, Image), IspError> {
-    let raw = *raw;
+    let linear = matches!(raw, Input::Linear(_));
     let config = *config;
     let (demosaic, distortion, wb_gains) = (config.demosaic, config.distortion, config.wb_gains);
-    let (w, h) = (raw.mosaic().width(), raw.mosaic().height());
+    let (w, h) = (raw.width(), raw.height());
     let mut out = vec![0u16; w * h * 3];
     let total_ms = if out_bits == 8 {
         let mut out8 = vec![0u8; w * h * 3];
@@ -426,7 +457,12 @@ pub fn execute(
         demosaic,
         ..IspConfig::default()
     };
-    let mut steps = vec![("black level+demosaic+encode", true, false, c)];
+    let base = if linear {
+        "black level+encode"
+    } else {
+        "black level+demosaic+encode"
+    };
+    let mut steps = vec![(base, true, false, c)];
     c.dpc = config.dpc;
     steps.push(("defective pixels", config.dpc.is_active(), false, c));
     c.lsc = config.lsc;
@@ -454,7 +490,11 @@ pub fn execute(
     steps.retain(|s| s.1);
     let mut stages = vec!["black level"];
     stages.extend(steps[1..].iter().filter(|s| !s.2).map(|s| s.0));
-    stages.push(demosaic.name());
+    stages.push(if linear {
+        "(linear input: no demosaicing)"
+    } else {
+        demosaic.name()
+    });
     stages.extend(steps[1..].iter().filter(|s| s.2).map(|s| s.0));
     stages.push("sRGB encode");
     let mut stage_ms = Vec::new();
@@ -490,7 +530,7 @@ pub fn execute(
 
 /// Runs the whole frame, best of three, in milliseconds.
 fn time_run<O: OutputSample + Default>(
-    raw: &RawFrame<'_>,
+    raw: &Input<'_>,
     config: &IspConfig<'_>,
     fixed: bool,
     out: &mut [O],
@@ -502,7 +542,7 @@ fn time_run<O: OutputSample + Default>(
         // Boxed: the fixed pipeline carries 32 KiB of tables.
         Fixed(Box<FixedPipeline<'a>>, Vec<u16>),
     }
-    let (w, h) = (raw.mosaic().width(), raw.mosaic().height());
+    let (w, h) = (raw.width(), raw.height());
     let len = config.scratch_len(w, h).ok_or(IspError::InvalidParameter {
         name: "frame size",
         allowed: "a scratch length that fits usize",
@@ -520,8 +560,8 @@ fn time_run<O: OutputSample + Default>(
         let mut view = RgbViewMut::new(out, w, h, 3 * w)?;
         let start = Instant::now();
         match &mut runner {
-            Runner::Float(p, scratch) => p.run(raw, 0..h, scratch, &mut view),
-            Runner::Fixed(p, scratch) => p.run(raw, 0..h, scratch, &mut view),
+            Runner::Float(p, scratch) => p.run_input(*raw, 0..h, scratch, &mut view),
+            Runner::Fixed(p, scratch) => p.run_input(*raw, 0..h, scratch, &mut view),
         }?;
         best = best.min(start.elapsed().as_secs_f64() * 1e3);
     }

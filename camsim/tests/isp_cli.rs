@@ -566,7 +566,7 @@ fn isp_corrects_the_bad_pixels_a_dng_lists_and_notes_opcodes_it_leaves_out() {
         rects: vec![],
     };
     let other = Opcode::Other {
-        id: 8,
+        id: 10,
         optional: true,
     };
     let plain = develop_with_opcodes(&dir, &image, Default::default(), "plain", &[]);
@@ -588,13 +588,13 @@ fn isp_corrects_the_bad_pixels_a_dng_lists_and_notes_opcodes_it_leaves_out() {
     assert!(
         listed
             .stderr
-            .contains("MapPolynomial opcode (optional) is not applied"),
+            .contains("DeltaPerRow opcode (optional) is not applied"),
         "{}",
         listed.stderr
     );
     // The same opcode not marked optional is refused by name.
     let required = Opcode::Other {
-        id: 8,
+        id: 10,
         optional: false,
     };
     let refused = develop_with_opcodes(
@@ -606,7 +606,7 @@ fn isp_corrects_the_bad_pixels_a_dng_lists_and_notes_opcodes_it_leaves_out() {
     );
     assert!(!refused.ok, "an opcode that may not be skipped was skipped");
     assert!(
-        refused.stderr.contains("MapPolynomial (id 8)"),
+        refused.stderr.contains("DeltaPerRow (id 10)"),
         "{}",
         refused.stderr
     );
@@ -736,5 +736,102 @@ fn isp_corrects_the_distortion_a_dngs_warp_rectilinear_states() {
     );
     assert_eq!(from_opcode.rgb, from_flags.rgb);
     assert_ne!(from_opcode.rgb, plain.rgb);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A LinearRaw DNG (already demosaiced), stored uncompressed and as lossy JPEG whose 8-bit
+/// codes OpcodeList2's MapPolynomials map back to linear (as Adobe's lossy DNGs do), develops
+/// without demosaicing in both paths to the colour it holds; defect correction, which needs a
+/// mosaic, is refused by name.
+#[test]
+fn isp_develops_linear_raw_dngs_uncompressed_and_lossy() {
+    use raw_formats::dng::opcodes::{Opcode, Region};
+    use raw_formats::dng::{Dng, DngColour, EncodeOptions, Storage};
+    let dir = std::env::temp_dir().join(format!("camsim-isp-linear-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (w, h) = (48, 32);
+    let linear = [0.4f64, 0.5, 0.3];
+    // sRGB codes of those linear values.
+    let expected = [170u16, 188, 149];
+    let cases = [
+        ("u16", 16u8, Storage::Uncompressed { bits: 16 }),
+        ("lossy", 8, Storage::LossyJpeg { quality: 95 }),
+    ];
+    for (name, bits, storage) in cases {
+        let lossy = bits == 8;
+        let max = f64::from((1u32 << bits) - 1);
+        let samples = (0..w * h * 3)
+            .map(|i| {
+                let v = linear[i % 3];
+                ((if lossy { v.sqrt() } else { v }) * max).round() as u16
+            })
+            .collect();
+        let image =
+            raw_formats::RawImage::linear_rgb(w, h, bits, [0; 3], max as u16, samples).unwrap();
+        let mut dng = Dng {
+            image,
+            camera_model: "linear test".into(),
+            colour: DngColour::default(),
+            framing: Default::default(),
+            processing: Default::default(),
+        };
+        if lossy {
+            dng.processing.opcode_lists[1] = (0..3)
+                .map(|plane| Opcode::MapPolynomial {
+                    region: Region {
+                        area: [0, 0, h as u32, w as u32],
+                        plane,
+                        planes: 1,
+                        row_pitch: 1,
+                        col_pitch: 1,
+                    },
+                    coefficients: vec![0.0, 0.0, 1.0],
+                })
+                .collect();
+        }
+        let options = EncodeOptions {
+            storage,
+            tile: Some((32, 32)),
+            little_endian: true,
+        };
+        let input = dir.join(format!("{name}.dng"));
+        std::fs::write(&input, dng.encode_with(&options).unwrap()).unwrap();
+        for path in ["float", "fixed"] {
+            let output = dir.join(format!("{name}-{path}.png"));
+            let mut args = vec![
+                "isp",
+                "--input",
+                input.to_str().unwrap(),
+                "--output",
+                output.to_str().unwrap(),
+            ];
+            args.extend(["--path", path]);
+            let (ok, stdout, stderr) = camsim(&args);
+            assert!(ok, "{name} {path}: {stderr}");
+            assert!(stdout.contains("no demosaicing"), "{stdout}");
+            let rgb = imageio::read(&output).unwrap();
+            assert_eq!((rgb.width, rgb.height), (w, h));
+            for (i, v) in rgb.data.iter().enumerate() {
+                let want = expected[i % 3];
+                assert!(
+                    v.abs_diff(want) <= if lossy { 2 } else { 1 },
+                    "{name} {path} sample {i}: {v}, expected {want}"
+                );
+            }
+        }
+        let (ok, _, stderr) = camsim(&[
+            "isp",
+            "--input",
+            input.to_str().unwrap(),
+            "--output",
+            dir.join("dpc.png").to_str().unwrap(),
+            "--dpc-threshold",
+            "100",
+        ]);
+        assert!(
+            !ok && stderr.contains("linear (already demosaiced)"),
+            "{stderr}"
+        );
+    }
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -311,6 +311,112 @@ impl<'a> RawFrame<'a> {
     }
 }
 
+/// A linear raw frame that is already demosaiced (a DNG's LinearRaw): three `u16` samples per
+/// pixel, R, G, B, holding `bit_depth`-bit data, with each channel's black and white level.
+/// The pipeline runs it as it runs a [`RawFrame`], without defect correction and demosaicing.
+///
+/// ```
+/// use isp_core::frame::LinearFrame;
+/// let data = [100u16, 200, 300, 4000, 4000, 4000];
+/// let frame = LinearFrame::new(&data, 2, 1, 6, 12, [64; 3], [4095; 3]).unwrap();
+/// assert_eq!(frame.pixel(1, 0), Some([4000; 3]));
+/// assert!(LinearFrame::new(&data, 2, 1, 6, 12, [64; 3], [5000; 3]).is_err());
+/// ```
+#[derive(Debug, Clone, Copy)]
+pub struct LinearFrame<'a> {
+    data: &'a [u16],
+    width: usize,
+    height: usize,
+    stride: usize,
+    bit_depth: u8,
+    black_level: [u16; 3],
+    white_level: [u16; 3],
+}
+
+impl<'a> LinearFrame<'a> {
+    /// A checked frame: `data` holds `(height - 1) * stride + 3 * width` samples, bit depth
+    /// 8..=16, each white level within the bit depth and above its channel's black level.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        data: &'a [u16],
+        width: usize,
+        height: usize,
+        stride: usize,
+        bit_depth: u8,
+        black_level: [u16; 3],
+        white_level: [u16; 3],
+    ) -> Result<Self, IspError> {
+        if !(8..=16).contains(&bit_depth) {
+            return Err(IspError::InvalidParameter {
+                name: "bit_depth",
+                allowed: "8..=16",
+            });
+        }
+        let max = ((1u32 << bit_depth) - 1) as u16;
+        if white_level.iter().any(|w| *w == 0 || *w > max) {
+            return Err(IspError::InvalidParameter {
+                name: "white_level",
+                allowed: "1..=2^bit_depth - 1",
+            });
+        }
+        if black_level.iter().zip(&white_level).any(|(b, w)| b >= w) {
+            return Err(IspError::InvalidParameter {
+                name: "black_level",
+                allowed: "< the channel's white_level",
+            });
+        }
+        check_rgb_plane(data.len(), width, height, stride)?;
+        Ok(Self {
+            data,
+            width,
+            height,
+            stride,
+            bit_depth,
+            black_level,
+            white_level,
+        })
+    }
+
+    /// Width in pixels.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Bits per sample.
+    pub fn bit_depth(&self) -> u8 {
+        self.bit_depth
+    }
+
+    /// Black level of R, G and B.
+    pub fn black_level(&self) -> [u16; 3] {
+        self.black_level
+    }
+
+    /// White level of R, G and B.
+    pub fn white_level(&self) -> [u16; 3] {
+        self.white_level
+    }
+
+    /// Row `y` (exactly `3 * width` samples); `y` must be < height.
+    #[inline]
+    pub(crate) fn row(&self, y: usize) -> &'a [u16] {
+        &self.data[y * self.stride..y * self.stride + 3 * self.width]
+    }
+
+    /// The pixel at `(x, y)`, or `None` outside the frame.
+    pub fn pixel(&self, x: usize, y: usize) -> Option<[u16; 3]> {
+        (x < self.width && y < self.height).then(|| {
+            let i = y * self.stride + 3 * x;
+            [self.data[i], self.data[i + 1], self.data[i + 2]]
+        })
+    }
+}
+
 /// An interleaved RGB output: three samples per pixel, `stride` samples from one row to the
 /// next (at least `3 * width`).
 #[derive(Debug)]

@@ -27,6 +27,12 @@
 //! 1, no distortion, strength 0, identity matrix, neutral tone) is skipped, and skipping it
 //! changes nothing.
 //!
+//! A [`LinearFrame`] (already demosaiced, as a DNG's LinearRaw) runs the same per channel:
+//! `raw` is the channel's sample with that channel's black and white level, `wb_c` its gain,
+//! `lsc` the grid's gain at the pixel's 2x2 position for all three channels, and there is no
+//! defect correction (asking for it is an error) and no demosaicing; the highlight stage's
+//! neighbourhood is the pixel itself (`run_linear`, or `run_input` with an [`Input`]).
+//!
 //! # Fixed-point path
 //!
 //! [`FixedPipeline`] computes the same with integers: linear pixels are `u16` with 65535 = 1.0
@@ -84,7 +90,7 @@ use core::ops::Range;
 use crate::demosaic::{self, reflect, Method};
 use crate::distortion::LensDistortion;
 use crate::dpc::{self, DpcConfig};
-use crate::frame::{RawFrame, RgbViewMut, Sample};
+use crate::frame::{LinearFrame, RawFrame, RgbViewMut, Sample};
 use crate::lsc::{LensShading, MAX_GRID_SIDE};
 use crate::srgb::{self, EncodeLut};
 use crate::tone::{Tone, ToneLut};
@@ -229,6 +235,59 @@ pub const fn scratch_len(width: usize) -> Option<usize> {
     width.checked_mul(MOSAIC_ROWS + 3 * RGB_ROWS)
 }
 
+/// What the pipeline develops: a Bayer mosaic, or a linear frame that is already demosaiced
+/// (a DNG's LinearRaw), which skips defect correction and demosaicing; every other stage is the
+/// same. `run` takes a mosaic, `run_linear` a linear frame, `run_input` either.
+#[derive(Debug, Clone, Copy)]
+pub enum Input<'a> {
+    /// A raw CFA mosaic.
+    Mosaic(RawFrame<'a>),
+    /// Linear RGB, three samples per pixel.
+    Linear(LinearFrame<'a>),
+}
+
+impl Input<'_> {
+    /// Width in pixels.
+    pub fn width(&self) -> usize {
+        match self {
+            Self::Mosaic(raw) => raw.mosaic().width(),
+            Self::Linear(frame) => frame.width(),
+        }
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> usize {
+        match self {
+            Self::Mosaic(raw) => raw.mosaic().height(),
+            Self::Linear(frame) => frame.height(),
+        }
+    }
+}
+
+impl<'a> From<&RawFrame<'a>> for Input<'a> {
+    fn from(raw: &RawFrame<'a>) -> Self {
+        Self::Mosaic(*raw)
+    }
+}
+
+impl<'a> From<RawFrame<'a>> for Input<'a> {
+    fn from(raw: RawFrame<'a>) -> Self {
+        Self::Mosaic(raw)
+    }
+}
+
+impl<'a> From<&LinearFrame<'a>> for Input<'a> {
+    fn from(frame: &LinearFrame<'a>) -> Self {
+        Self::Linear(*frame)
+    }
+}
+
+impl<'a> From<LinearFrame<'a>> for Input<'a> {
+    fn from(frame: LinearFrame<'a>) -> Self {
+        Self::Linear(frame)
+    }
+}
+
 /// An output sample: `u8` or `u16` sRGB, or `f32` in `[0, 1]` (float path only).
 pub trait OutputSample: Copy + 'static {
     /// Bits of an integer code, or 0 for `f32`.
@@ -293,6 +352,8 @@ trait Path {
         dpc: &[u16],
         out: &mut [Self::P],
     );
+    /// Pointwise stages for every pixel of row `y` of a linear frame (`out`: 3 per pixel).
+    fn linear_span(&self, frame: &LinearFrame<'_>, y: usize, out: &mut [Self::P]);
     /// Whether the highlight stage is on.
     fn highlights_on(&self) -> bool;
     /// The highlight stage on a demosaiced pixel with the 3x3 raw samples around it.
@@ -331,7 +392,29 @@ impl<'a> FloatPipeline<'a> {
         scratch: &mut [f32],
         out: &mut RgbViewMut<'_, O>,
     ) -> Result<(), IspError> {
-        run_rows(self, raw, rows, scratch, out)
+        run_rows(self, Input::Mosaic(*raw), rows, scratch, out)
+    }
+
+    /// As [`FloatPipeline::run`] for a linear (already demosaiced) frame.
+    pub fn run_linear<O: OutputSample>(
+        &self,
+        frame: &LinearFrame<'_>,
+        rows: Range<usize>,
+        scratch: &mut [f32],
+        out: &mut RgbViewMut<'_, O>,
+    ) -> Result<(), IspError> {
+        run_rows(self, Input::Linear(*frame), rows, scratch, out)
+    }
+
+    /// As [`FloatPipeline::run`] for either kind of frame.
+    pub fn run_input<O: OutputSample>(
+        &self,
+        input: Input<'_>,
+        rows: Range<usize>,
+        scratch: &mut [f32],
+        out: &mut RgbViewMut<'_, O>,
+    ) -> Result<(), IspError> {
+        run_rows(self, input, rows, scratch, out)
     }
 }
 
@@ -377,6 +460,35 @@ impl Path for FloatPipeline<'_> {
                 v = (g * v).min(1.0);
             }
             *o = v;
+        }
+    }
+
+    fn linear_span(&self, frame: &LinearFrame<'_>, y: usize, out: &mut [f32]) {
+        let c = &self.config;
+        let (w, h) = (frame.width(), frame.height());
+        let (black, white) = (frame.black_level(), frame.white_level());
+        for (x, (px, raw)) in out
+            .chunks_exact_mut(3)
+            .zip(frame.row(y).chunks_exact(3))
+            .enumerate()
+        {
+            let shading = c.lsc.as_ref().map(|lsc| lsc.gain_f32(x, y, w, h));
+            for ch in 0..3 {
+                let d = raw[ch].saturating_sub(black[ch]) as f32;
+                let mut v = d / (white[ch] - black[ch]) as f32;
+                if let Some(s) = shading {
+                    v *= s;
+                }
+                v = v.clamp(0.0, 1.0);
+                if c.gain != 1.0 {
+                    v = (c.gain * v).min(1.0);
+                }
+                let g = c.wb_gains[ch];
+                if g != 1.0 {
+                    v = (g * v).min(1.0);
+                }
+                px[ch] = v;
+            }
         }
     }
 
@@ -470,6 +582,28 @@ impl<'a> FixedPipeline<'a> {
         scratch: &mut [u16],
         out: &mut RgbViewMut<'_, O>,
     ) -> Result<(), IspError> {
+        self.run_input(Input::Mosaic(*raw), rows, scratch, out)
+    }
+
+    /// As [`FixedPipeline::run`] for a linear (already demosaiced) frame.
+    pub fn run_linear<O: OutputSample>(
+        &self,
+        frame: &LinearFrame<'_>,
+        rows: Range<usize>,
+        scratch: &mut [u16],
+        out: &mut RgbViewMut<'_, O>,
+    ) -> Result<(), IspError> {
+        self.run_input(Input::Linear(*frame), rows, scratch, out)
+    }
+
+    /// As [`FixedPipeline::run`] for either kind of frame.
+    pub fn run_input<O: OutputSample>(
+        &self,
+        input: Input<'_>,
+        rows: Range<usize>,
+        scratch: &mut [u16],
+        out: &mut RgbViewMut<'_, O>,
+    ) -> Result<(), IspError> {
         let max = match O::BITS {
             8 => 255,
             16 => 65535,
@@ -481,7 +615,7 @@ impl<'a> FixedPipeline<'a> {
                 allowed: "u8 or u16 samples of the depth the pipeline was built for",
             });
         }
-        run_rows(self, raw, rows, scratch, out)
+        run_rows(self, input, rows, scratch, out)
     }
 }
 
@@ -534,6 +668,41 @@ impl Path for FixedPipeline<'_> {
                 v = ((v * g + (1 << 15)) >> GAIN_FRAC_BITS).min(65535);
             }
             *o = v as u16;
+        }
+    }
+
+    fn linear_span(&self, frame: &LinearFrame<'_>, y: usize, out: &mut [u16]) {
+        let (w, h) = (frame.width(), frame.height());
+        let (black, white) = (frame.black_level(), frame.white_level());
+        let recip: [u64; 3] = core::array::from_fn(|c| {
+            let range = (white[c] - black[c]) as u64;
+            ((65535u64 << 16) + range / 2) / range
+        });
+        let mut nodes = [0u32; 2 * MAX_GRID_SIDE];
+        if let Some(lsc) = &self.lsc {
+            lsc.row_nodes_q16(y, h, &mut nodes);
+        }
+        for (x, (px, raw)) in out
+            .chunks_exact_mut(3)
+            .zip(frame.row(y).chunks_exact(3))
+            .enumerate()
+        {
+            let shading = self.lsc.as_ref().map(|lsc| lsc.gain_q16(&nodes, x, w));
+            for c in 0..3 {
+                let d = raw[c].saturating_sub(black[c]) as u64;
+                let mut t = d * recip[c];
+                if let Some(s) = shading {
+                    t = (t >> 16) * s;
+                }
+                let mut v = ((t + (1 << 15)) >> 16).min(65535);
+                if let Some(g) = self.gain_q16 {
+                    v = ((v * g + (1 << 15)) >> GAIN_FRAC_BITS).min(65535);
+                }
+                if let Some(wb) = &self.wb_q16 {
+                    v = ((v * wb[c] + (1 << 15)) >> GAIN_FRAC_BITS).min(65535);
+                }
+                px[c] = v as u16;
+            }
         }
     }
 
@@ -613,7 +782,7 @@ impl RowWindow {
 /// The ring buffers of one run and how to fill them.
 struct Engine<'s, 'p, A: Path> {
     path: &'p A,
-    raw: &'p RawFrame<'p>,
+    input: Input<'p>,
     mosaic_ring: &'s mut [A::P],
     mosaic_tags: [usize; MOSAIC_ROWS],
     /// Demosaiced RGB, `demosaic_slots` rows.
@@ -625,18 +794,40 @@ struct Engine<'s, 'p, A: Path> {
 impl<A: Path> Engine<'_, '_, A> {
     /// Makes demosaiced rows `lo..=hi` held.
     fn demosaic_rows(&mut self, lo: usize, hi: usize) -> Result<(), IspError> {
-        let mosaic = self.raw.mosaic();
-        let (w, h) = (mosaic.width(), mosaic.height());
+        let (w, h) = (self.input.width(), self.input.height());
         for range in self.demosaic_window.request(lo, hi, self.demosaic_slots) {
             for ry in range {
-                self.demosaic_row(ry, w, h)?;
+                match self.input {
+                    Input::Mosaic(raw) => self.demosaic_row(&raw, ry, w, h)?,
+                    Input::Linear(frame) => self.linear_row(&frame, ry, w),
+                }
             }
         }
         Ok(())
     }
 
-    fn demosaic_row(&mut self, ry: usize, w: usize, h: usize) -> Result<(), IspError> {
-        let raw = self.raw;
+    /// A linear frame's row, prepared as a demosaiced one is; the highlight stage sees the
+    /// pixel's own channels (there is no raw neighbourhood).
+    fn linear_row(&mut self, frame: &LinearFrame<'_>, ry: usize, w: usize) {
+        let slot = ry % self.demosaic_slots;
+        let out = &mut self.demosaic_ring[slot * 3 * w..(slot + 1) * 3 * w];
+        self.path.linear_span(frame, ry, out);
+        if self.path.highlights_on() {
+            for px in out.chunks_exact_mut(3) {
+                let rgb = [px[0], px[1], px[2]];
+                let own: [A::P; 9] = core::array::from_fn(|i| rgb[i % 3]);
+                px.copy_from_slice(&self.path.highlights(rgb, own));
+            }
+        }
+    }
+
+    fn demosaic_row(
+        &mut self,
+        raw: &RawFrame<'_>,
+        ry: usize,
+        w: usize,
+        h: usize,
+    ) -> Result<(), IspError> {
         for dm in -2..=2isize {
             let my = reflect(ry as isize + dm, h);
             let slot = my % MOSAIC_ROWS;
@@ -685,13 +876,18 @@ impl<A: Path> Engine<'_, '_, A> {
 /// The streaming engine both paths share; see the module docs.
 fn run_rows<A: Path, O: OutputSample>(
     path: &A,
-    raw: &RawFrame<'_>,
+    input: Input<'_>,
     rows: Range<usize>,
     scratch: &mut [A::P],
     out: &mut RgbViewMut<'_, O>,
 ) -> Result<(), IspError> {
-    let mosaic = raw.mosaic();
-    let (w, h) = (mosaic.width(), mosaic.height());
+    let (w, h) = (input.width(), input.height());
+    if matches!(input, Input::Linear(_)) && path.dpc().is_active() {
+        return Err(IspError::InvalidParameter {
+            name: "defect correction",
+            allowed: "off for a linear (already demosaiced) frame",
+        });
+    }
     if rows.start >= rows.end || rows.end > h {
         return Err(IspError::InvalidParameter {
             name: "rows",
@@ -730,7 +926,7 @@ fn run_rows<A: Path, O: OutputSample>(
     };
     let mut engine = Engine {
         path,
-        raw,
+        input,
         mosaic_ring,
         mosaic_tags: [usize::MAX; MOSAIC_ROWS],
         demosaic_ring,

@@ -20,11 +20,13 @@
 //!   the Minkowski `p`-mean of the gradient magnitude `|c(i+1, j) - c(i, j)| + |c(i, j+1) - c(i, j)|`
 //!   over superpixels.
 //!
+//! On a linear frame (already demosaiced, [`estimate_linear`]) each pixel is one superpixel.
+//!
 //! Each returns the gains, the camera's neutral (their reciprocal) and the correlated colour
 //! temperature of that neutral, through the caller's camera-to-XYZ matrix and McCamy's formula.
 
 use crate::colour::{self, Mat3};
-use crate::frame::RawFrame;
+use crate::frame::{LinearFrame, RawFrame};
 use crate::{math, IspError};
 
 /// Largest white-balance gain (exclusive), the range of unsigned Q4.10 in firmware ISPs (PiSP).
@@ -144,7 +146,6 @@ pub fn estimate(
     method: AwbMethod,
     camera_to_xyz: &Mat3,
 ) -> Result<AwbEstimate, IspError> {
-    method.validate()?;
     let (bw, bh) = (raw.mosaic().width() / 2, raw.mosaic().height() / 2);
     if bw == 0 || bh == 0 {
         return Err(IspError::InvalidParameter {
@@ -152,6 +153,55 @@ pub fn estimate(
             allowed: "at least 2x2 pixels for AWB",
         });
     }
+    estimate_over(
+        bw,
+        bh,
+        |bx, by| superpixel(raw, bx, by),
+        method,
+        camera_to_xyz,
+    )
+}
+
+/// [`estimate`] for a linear frame (already demosaiced): each pixel is a superpixel, left out
+/// if any channel is at or above 98% of its white.
+///
+/// ```
+/// use isp_core::colour::LINEAR_SRGB_TO_XYZ;
+/// use isp_core::frame::LinearFrame;
+/// use isp_core::wb::{estimate_linear, AwbMethod};
+/// // A grey scene under a light that doubles red and halves blue, and one clipped pixel.
+/// let data = [800u16, 400, 200, 400, 200, 100, 4095, 4095, 4095];
+/// let frame = LinearFrame::new(&data, 3, 1, 9, 12, [0; 3], [4095; 3]).unwrap();
+/// let awb = estimate_linear(&frame, AwbMethod::GreyWorld, &LINEAR_SRGB_TO_XYZ).unwrap();
+/// assert!((awb.gains[0] - 0.5).abs() < 1e-6 && (awb.gains[2] - 2.0).abs() < 1e-6);
+/// ```
+pub fn estimate_linear(
+    frame: &LinearFrame<'_>,
+    method: AwbMethod,
+    camera_to_xyz: &Mat3,
+) -> Result<AwbEstimate, IspError> {
+    let (black, white) = (frame.black_level(), frame.white_level());
+    let pixel = |x: usize, y: usize| {
+        let p = frame.pixel(x, y)?;
+        let rgb: [f32; 3] = core::array::from_fn(|c| {
+            p[c].saturating_sub(black[c]) as f32 / (white[c] - black[c]) as f32
+        });
+        rgb.iter()
+            .all(|v| *v < CLIP_FRACTION)
+            .then(|| rgb.map(|v| v.min(1.0)))
+    };
+    estimate_over(frame.width(), frame.height(), pixel, method, camera_to_xyz)
+}
+
+/// The statistics of `method` over a `bw` x `bh` grid of superpixels (`None` where clipped).
+fn estimate_over(
+    bw: usize,
+    bh: usize,
+    superpixel: impl Fn(usize, usize) -> Option<[f32; 3]>,
+    method: AwbMethod,
+    camera_to_xyz: &Mat3,
+) -> Result<AwbEstimate, IspError> {
+    method.validate()?;
     let mut sum = [0.0f64; 3];
     let mut n = 0.0f64;
     let stat: [f64; 3] = match method {
@@ -162,7 +212,7 @@ pub fn estimate(
             };
             for by in 0..bh {
                 for bx in 0..bw {
-                    if let Some(rgb) = superpixel(raw, bx, by) {
+                    if let Some(rgb) = superpixel(bx, by) {
                         for c in 0..3 {
                             sum[c] += math::pow(rgb[c] as f64, p as f64);
                         }
@@ -176,9 +226,9 @@ pub fn estimate(
             for by in 0..bh.saturating_sub(1) {
                 for bx in 0..bw.saturating_sub(1) {
                     let (Some(a), Some(r), Some(d)) = (
-                        superpixel(raw, bx, by),
-                        superpixel(raw, bx + 1, by),
-                        superpixel(raw, bx, by + 1),
+                        superpixel(bx, by),
+                        superpixel(bx + 1, by),
+                        superpixel(bx, by + 1),
                     ) else {
                         continue;
                     };
@@ -195,7 +245,7 @@ pub fn estimate(
             let mut hist = [[0u32; BINS]; 3];
             for by in 0..bh {
                 for bx in 0..bw {
-                    if let Some(rgb) = superpixel(raw, bx, by) {
+                    if let Some(rgb) = superpixel(bx, by) {
                         for c in 0..3 {
                             let bin = ((rgb[c] * BINS as f32) as usize).min(BINS - 1);
                             hist[c][bin] += 1;

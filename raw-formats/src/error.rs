@@ -73,6 +73,11 @@ pub enum FormatError {
         /// What was wrong.
         problem: &'static str,
     },
+    /// A lossy (baseline) JPEG stream is damaged or not what a DNG holds.
+    LossyJpeg {
+        /// What was wrong, as the decoder (`jpeg-decoder`) says.
+        problem: String,
+    },
     /// A field holds a value this reader does not support.
     Unsupported {
         /// The field.
@@ -163,7 +168,7 @@ impl fmt::Display for FormatError {
             Self::Missing { field, tag: Some(tag) } => write!(f, "missing {field} tag ({tag})"),
             Self::Missing { field, tag: None } => write!(f, "missing {field}"),
             Self::NoCfaImage => f.write_str(
-                "no CFA raw image (PhotometricInterpretation 32803, NewSubfileType 0) in IFD 0 or its SubIFDs; linear DNGs are not supported",
+                "no raw image (PhotometricInterpretation 32803, CFA, or 34892, LinearRaw, with NewSubfileType 0) in IFD 0 or its SubIFDs",
             ),
             Self::FieldType { field_type } => {
                 write!(f, "TIFF field type {field_type} is unknown or not a number")
@@ -177,15 +182,15 @@ impl fmt::Display for FormatError {
             Self::Compression { value } => {
                 let name = match value {
                     8 | 32946 => " (deflate)",
-                    34892 => " (lossy JPEG)",
                     52546 => " (JPEG XL)",
                     _ => "",
                 };
                 write!(
                     f,
-                    "Compression {value}{name} is not supported (1, uncompressed, and 7, lossless JPEG, are)"
+                    "Compression {value}{name} is not supported (1, uncompressed, 7, lossless JPEG, and 34892, lossy JPEG, are)"
                 )
             }
+            Self::LossyJpeg { problem } => write!(f, "lossy JPEG: {problem}"),
             Self::LosslessJpeg { offset, problem } => {
                 write!(f, "lossless JPEG: {problem} (at byte {offset} of the stream)")
             }

@@ -4,14 +4,15 @@
 //!
 //! [`seed_corpus`] makes the valid files each target starts from: DNGs of every layout the
 //! reader supports (8- to 16-bit packed and lossless-JPEG samples, strips and padded tiles,
-//! both byte orders, linearisation, black-level repeats and deltas, crops and orientations)
+//! both byte orders, linearisation, black-level repeats and deltas, crops and orientations;
+//! LinearRaw images uncompressed, lossless and lossy JPEG, with OpcodeList2 maps)
 //! and lossless JPEG streams of every predictor, component count and restart spacing. Random
 //! bytes rarely get past a TIFF header's checks, so a fuzzer started from nothing never
 //! reaches the decoders behind them.
 
 use isp_core::CfaPattern;
 
-use crate::dng::opcodes::{self, GainMap, Opcode};
+use crate::dng::opcodes::{self, GainMap, Opcode, Region};
 use crate::dng::write::{long, short, srational};
 use crate::dng::{
     tags, ColourCalibration, Crop, Dng, DngColour, EncodeOptions, Framing, Illuminant, Orientation,
@@ -26,7 +27,10 @@ use crate::raw_image::RawImage;
 pub fn dng_decode(data: &[u8]) {
     if let Ok(dng) = Dng::decode(data) {
         let image = &dng.image;
-        assert_eq!(image.samples.len(), image.width * image.height);
+        assert_eq!(
+            image.samples.len(),
+            image.width * image.height * usize::from(image.samples_per_pixel)
+        );
         assert!(image.black_level.iter().all(|b| *b < image.white_level));
         if let Some(crop) = dng.framing.default_crop {
             assert!(crop.check(image.width, image.height).is_ok());
@@ -221,6 +225,77 @@ pub fn seed_corpus() -> Vec<(&'static str, String, Vec<u8>)> {
             .encode_with_entries(&options, entries)
             .expect("seed DNGs encode");
         seeds.push(("dng_decode", format!("{name}.dng"), bytes));
+    }
+    // LinearRaw (already demosaiced): each storage, and lossy JPEG mapped to linear by
+    // OpcodeList2 polynomials and a table, as Adobe's lossy DNGs are.
+    let linear = |bits: u8| {
+        let mut dng = seed_dng(bits, CfaPattern::Rggb, framing);
+        let cfa = dng.image;
+        let samples = cfa
+            .samples
+            .iter()
+            .enumerate()
+            .flat_map(|(i, v)| [*v, cfa.samples[(i + 7) % cfa.samples.len()], v / 2])
+            .collect();
+        let black = cfa.black_level[0];
+        dng.image = RawImage::linear_rgb(
+            cfa.width,
+            cfa.height,
+            bits,
+            [black; 3],
+            cfa.white_level,
+            samples,
+        )
+        .expect("a valid linear seed");
+        dng
+    };
+    let linear_storages = [
+        ("u16", 16, Storage::Uncompressed { bits: 16 }),
+        ("packed12", 12, Storage::Uncompressed { bits: 12 }),
+        (
+            "lj92-3c",
+            14,
+            Storage::LosslessJpeg {
+                components: 3,
+                predictor: 4,
+            },
+        ),
+        ("lossy", 8, Storage::LossyJpeg { quality: 90 }),
+    ];
+    for (name, bits, storage) in linear_storages {
+        let mut dng = linear(bits);
+        if name == "lossy" {
+            let region = |plane| Region {
+                area: [0, 0, 12, 20],
+                plane,
+                planes: 1,
+                row_pitch: 1,
+                col_pitch: 1,
+            };
+            dng.processing.opcode_lists[1] = vec![
+                Opcode::MapPolynomial {
+                    region: region(0),
+                    coefficients: vec![0.0, 0.3, 0.7],
+                },
+                Opcode::MapPolynomial {
+                    region: region(1),
+                    coefficients: vec![0.0, 0.0, 1.0],
+                },
+                Opcode::MapTable {
+                    region: region(2),
+                    table: (0..256u32).map(|v| (v * v) as u16).collect(),
+                },
+            ];
+        }
+        for (layout, tile) in [("strip", None), ("tiles", Some((16, 16)))] {
+            let options = EncodeOptions {
+                storage,
+                tile,
+                little_endian: layout == "strip",
+            };
+            let bytes = dng.encode_with(&options).expect("seed DNGs encode");
+            seeds.push(("dng_decode", format!("linear-{name}-{layout}.dng"), bytes));
+        }
     }
     let lists = seed_opcode_lists();
     let mut with_opcodes = seed_dng(12, CfaPattern::Bggr, Framing::default());

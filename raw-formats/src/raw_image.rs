@@ -1,14 +1,16 @@
 //! [`RawImage`]: the one owned raw frame of the host side. The sensor model produces it, the
 //! DNG writer and reader and the PNG/PGM mosaic reader hold it, and [`RawImage::frame`] lends
-//! it to isp-core as the checked borrowed view [`RawFrame`].
+//! it to isp-core as the checked borrowed view [`RawFrame`] (or [`LinearFrame`] for a linear,
+//! already demosaiced frame).
 
-use isp_core::frame::RawFrame;
+use isp_core::frame::{LinearFrame, RawFrame};
+use isp_core::pipeline::Input;
 use isp_core::CfaPattern;
 
 use crate::error::{FormatError, Result};
 
-/// A raw CFA frame: one `u16` sample per pixel holding `bits`-bit data, with its pattern and
-/// levels.
+/// A raw frame: a CFA mosaic (one `u16` sample per pixel) or a linear, already demosaiced
+/// frame (three, R G B, as a DNG's LinearRaw), holding `bits`-bit data, with its levels.
 ///
 /// ```
 /// use raw_formats::RawImage;
@@ -17,6 +19,9 @@ use crate::error::{FormatError, Result};
 /// let frame = raw.frame().unwrap();
 /// assert_eq!(frame.black_at(1, 1), 64);
 /// assert!(RawImage::new(4, 2, CfaPattern::Rggb, 12, [64; 4], 4095, vec![100; 7]).is_err());
+/// let linear = RawImage::linear_rgb(4, 2, 12, [64, 60, 62], 4095, vec![100; 24]).unwrap();
+/// assert_eq!(linear.linear_frame().unwrap().black_level(), [64, 60, 62]);
+/// assert!(linear.frame().is_err());
 /// ```
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct RawImage {
@@ -24,15 +29,18 @@ pub struct RawImage {
     pub width: usize,
     /// Height in pixels.
     pub height: usize,
-    /// CFA pattern by the top-left 2x2 block.
+    /// CFA pattern by the top-left 2x2 block (unused for a linear frame).
     pub pattern: CfaPattern,
+    /// Samples per pixel: 1 for a CFA mosaic, 3 for linear R, G, B.
+    pub samples_per_pixel: u8,
     /// Significant bits per sample, 8..=16.
     pub bits: u8,
-    /// Black level per 2x2 CFA position, row by row.
+    /// Black level per 2x2 CFA position, row by row; for a linear frame per channel R, G, B
+    /// (the fourth unused, kept equal to green).
     pub black_level: [u16; 4],
     /// White level (the largest meaningful code).
     pub white_level: u16,
-    /// `width * height` samples, row-major.
+    /// `width * height * samples_per_pixel` samples, row-major, a pixel's samples together.
     pub samples: Vec<u16>,
 }
 
@@ -53,6 +61,7 @@ impl RawImage {
             width,
             height,
             pattern,
+            samples_per_pixel: 1,
             bits,
             black_level,
             white_level,
@@ -60,6 +69,36 @@ impl RawImage {
         };
         raw.check()?;
         Ok(raw)
+    }
+
+    /// A checked linear frame (already demosaiced): `width * height * 3` samples, R G B per
+    /// pixel, with each channel's black level.
+    pub fn linear_rgb(
+        width: usize,
+        height: usize,
+        bits: u8,
+        black_level: [u16; 3],
+        white_level: u16,
+        samples: Vec<u16>,
+    ) -> Result<Self> {
+        let [r, g, b] = black_level;
+        let raw = Self {
+            width,
+            height,
+            pattern: CfaPattern::Rggb,
+            samples_per_pixel: 3,
+            bits,
+            black_level: [r, g, b, g],
+            white_level,
+            samples,
+        };
+        raw.check()?;
+        Ok(raw)
+    }
+
+    /// Whether this is a linear, already demosaiced frame.
+    pub fn is_linear(&self) -> bool {
+        self.samples_per_pixel == 3
     }
 
     /// Checks the fields against each other (the public fields may have been edited).
@@ -71,7 +110,17 @@ impl RawImage {
                 allowed: "at least 1 x 1".into(),
             });
         }
-        let pixels = self.width.saturating_mul(self.height);
+        if !matches!(self.samples_per_pixel, 1 | 3) {
+            return Err(FormatError::OutOfRange {
+                field: "samples per pixel",
+                value: self.samples_per_pixel.to_string(),
+                allowed: "1 (a CFA mosaic) or 3 (linear RGB)".into(),
+            });
+        }
+        let pixels = self
+            .width
+            .saturating_mul(self.height)
+            .saturating_mul(usize::from(self.samples_per_pixel));
         if self.samples.len() != pixels {
             return Err(FormatError::SizeMismatch {
                 what: "raw samples",
@@ -107,8 +156,43 @@ impl RawImage {
         ((1u32 << self.bits.clamp(1, 16)) - 1) as u16
     }
 
-    /// The borrowed view isp-core runs on.
+    /// The borrowed view isp-core runs on: the mosaic, or the linear frame.
+    pub fn input(&self) -> std::result::Result<Input<'_>, isp_core::IspError> {
+        if self.is_linear() {
+            self.linear_frame().map(Input::Linear)
+        } else {
+            self.frame().map(Input::Mosaic)
+        }
+    }
+
+    /// The linear frame as isp-core's view; an error for a mosaic.
+    pub fn linear_frame(&self) -> std::result::Result<LinearFrame<'_>, isp_core::IspError> {
+        if !self.is_linear() {
+            return Err(isp_core::IspError::InvalidParameter {
+                name: "raw image",
+                allowed: "a linear (3 samples per pixel) frame",
+            });
+        }
+        let [r, g, b, _] = self.black_level;
+        LinearFrame::new(
+            &self.samples,
+            self.width,
+            self.height,
+            3 * self.width,
+            self.bits,
+            [r, g, b],
+            [self.white_level; 3],
+        )
+    }
+
+    /// The mosaic as isp-core's view; an error for a linear frame.
     pub fn frame(&self) -> std::result::Result<RawFrame<'_>, isp_core::IspError> {
+        if self.is_linear() {
+            return Err(isp_core::IspError::InvalidParameter {
+                name: "raw image",
+                allowed: "a CFA mosaic, not a linear (already demosaiced) frame",
+            });
+        }
         RawFrame::new(
             &self.samples,
             self.width,

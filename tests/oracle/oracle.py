@@ -253,9 +253,11 @@ def op_rawpy_read(args, arrays):
             "white_level": int(raw.white_level),
             "num_colors": int(raw.num_colors),
             "color_desc": raw.color_desc.decode(),
+            "has_pattern": raw.raw_pattern is not None,
         }, [
             np.array(raw.raw_image_visible, dtype=np.uint16),
-            np.array(raw.raw_pattern, dtype=np.uint8),
+            # A linear (already demosaiced) DNG has no pattern; its raw is H x W x 4.
+            np.array(raw.raw_pattern if raw.raw_pattern is not None else np.zeros((2, 2)), dtype=np.uint8),
             np.array(raw.black_level_per_channel, dtype=np.float64),
             np.array(raw.color_matrix[:, :3], dtype=np.float64),
             np.array(raw.camera_whitebalance, dtype=np.float64),

@@ -6,7 +6,7 @@
 use isp_core::demosaic::Method;
 use isp_core::distortion::LensDistortion;
 use isp_core::dpc::{Defect, DpcConfig};
-use isp_core::frame::RawFrame;
+use isp_core::frame::{LinearFrame, RawFrame};
 use isp_core::lsc::LensShading;
 use isp_core::pipeline::IspConfig;
 use isp_core::tone::Tone;
@@ -57,6 +57,41 @@ impl Frame {
     /// The CFA colour index at `(x, y)`.
     pub fn colour(&self, x: usize, y: usize) -> usize {
         self.pattern.colour_at(x, y).index()
+    }
+}
+
+/// A linear (already demosaiced) frame and everything the reference needs to know about it.
+#[derive(Debug, Clone)]
+pub struct LinearRef {
+    /// Interleaved R, G, B samples.
+    pub data: Vec<u16>,
+    /// Width in pixels.
+    pub w: usize,
+    /// Height in pixels.
+    pub h: usize,
+    /// Samples from one row to the next (at least `3 * w`).
+    pub stride: usize,
+    /// Bits per sample.
+    pub bits: u8,
+    /// Black level per channel.
+    pub black: [u16; 3],
+    /// White level per channel.
+    pub white: [u16; 3],
+}
+
+impl LinearRef {
+    /// The frame as isp-core sees it.
+    pub fn frame(&self) -> LinearFrame<'_> {
+        LinearFrame::new(
+            &self.data,
+            self.w,
+            self.h,
+            self.stride,
+            self.bits,
+            self.black,
+            self.white,
+        )
+        .unwrap()
     }
 }
 
@@ -427,11 +462,44 @@ pub fn reference(f: &Frame, s: &Settings) -> Vec<[f64; 3]> {
             }
         })
         .collect();
+    finish_reference(rgb, f.w, f.h, s)
+}
+
+/// The documented semantics for a linear frame: the pointwise stages per channel, no defect
+/// correction or demosaicing, highlights from the pixel's own channels, then the same stages
+/// after demosaicing as a mosaic.
+pub fn reference_linear(f: &LinearRef, s: &Settings) -> Vec<[f64; 3]> {
+    let knee = s.highlight_knee as f64;
+    let mut rgb = Vec::with_capacity(f.w * f.h);
+    for y in 0..f.h {
+        for x in 0..f.w {
+            let p: [f64; 3] = std::array::from_fn(|c| {
+                let (black, white) = (f.black[c] as f64, f.white[c] as f64);
+                let d = (f.data[y * f.stride + 3 * x + c] as f64 - black).max(0.0);
+                let mut v =
+                    (lsc_reference(s, x, y, f.w, f.h) * d / (white - black)).clamp(0.0, 1.0);
+                v = (s.gain as f64 * v).min(1.0);
+                (s.wb[c] as f64 * v).min(1.0)
+            });
+            let top = p[0].max(p[1]).max(p[2]);
+            rgb.push(if knee < 1.0 && top > knee {
+                let k = ((top - knee) / (1.0 - knee)).min(1.0);
+                p.map(|v| v + k * (top - v))
+            } else {
+                p
+            });
+        }
+    }
+    finish_reference(rgb, f.w, f.h, s)
+}
+
+/// Distortion, denoise, CCM, tone and encoding of demosaiced RGB.
+fn finish_reference(rgb: Vec<[f64; 3]>, w: usize, h: usize, s: &Settings) -> Vec<[f64; 3]> {
     let rgb = match &s.distortion {
-        Some(lens) => undistort_reference(&rgb, f.w, f.h, lens),
+        Some(lens) => undistort_reference(&rgb, w, h, lens),
         None => rgb,
     };
-    let rgb = denoise_reference(&rgb, f.w, f.h, s.denoise as f64);
+    let rgb = denoise_reference(&rgb, w, h, s.denoise as f64);
     rgb.iter()
         .map(|p| {
             let lin: [f64; 3] = std::array::from_fn(|i| {

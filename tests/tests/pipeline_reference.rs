@@ -2,13 +2,13 @@
 //! (`camsim_tests::isp_reference`), the fixed path against the float path, and streaming
 //! against whole-frame runs.
 
-use camsim_tests::isp_reference::{reference, Frame, Settings};
+use camsim_tests::isp_reference::{reference, reference_linear, Frame, LinearRef, Settings};
 use camsim_tests::strategies::lens;
 use isp_core::demosaic::Method;
 use isp_core::distortion::LensDistortion;
 use isp_core::dpc::Defect;
 use isp_core::frame::RgbViewMut;
-use isp_core::pipeline::{FixedPipeline, FloatPipeline};
+use isp_core::pipeline::{FixedPipeline, FloatPipeline, IspConfig};
 use isp_core::tone::{Tone, ToneCurve};
 use isp_core::CfaPattern;
 use optics_core::distortion::BrownConrady;
@@ -54,6 +54,82 @@ fn run_fixed(f: &Frame, s: &Settings, bands: &[usize]) -> Vec<u8> {
     run_in_bands(f, bands, |rows, view| {
         pipeline.run(&raw, rows, &mut scratch, view).unwrap()
     })
+}
+
+fn run_linear_float(f: &LinearRef, s: &Settings, bands: &[usize]) -> Vec<u8> {
+    let (frame, config) = (f.frame(), s.config());
+    let pipeline = FloatPipeline::new(&config).unwrap();
+    let mut scratch = vec![f32::NAN; pipeline.scratch_len(f.w, f.h).unwrap()];
+    let mut out = vec![0u8; f.w * f.h * 3];
+    let mut y = 0;
+    for &band in bands.iter().chain(std::iter::repeat(&f.h)) {
+        if y == f.h {
+            break;
+        }
+        let rows = y..(y + band).min(f.h);
+        let chunk = &mut out[3 * f.w * rows.start..3 * f.w * rows.end];
+        let mut view = RgbViewMut::new(chunk, f.w, rows.len(), 3 * f.w).unwrap();
+        pipeline
+            .run_linear(&frame, rows.clone(), &mut scratch, &mut view)
+            .unwrap();
+        y = rows.end;
+    }
+    out
+}
+
+fn run_linear_fixed(f: &LinearRef, s: &Settings, bands: &[usize]) -> Vec<u8> {
+    let (frame, config) = (f.frame(), s.config());
+    let pipeline = FixedPipeline::new(&config, 8).unwrap();
+    let mut scratch = vec![0xA5A5u16; pipeline.scratch_len(f.w, f.h).unwrap()];
+    let mut out = vec![0u8; f.w * f.h * 3];
+    let mut y = 0;
+    for &band in bands.iter().chain(std::iter::repeat(&f.h)) {
+        if y == f.h {
+            break;
+        }
+        let rows = y..(y + band).min(f.h);
+        let chunk = &mut out[3 * f.w * rows.start..3 * f.w * rows.end];
+        let mut view = RgbViewMut::new(chunk, f.w, rows.len(), 3 * f.w).unwrap();
+        pipeline
+            .run_linear(&frame, rows.clone(), &mut scratch, &mut view)
+            .unwrap();
+        y = rows.end;
+    }
+    out
+}
+
+/// A linear frame of the same sizes and depths as [`frame_strategy`]'s, with settings that
+/// leave defect correction off (it needs a mosaic) and band heights.
+fn linear_case() -> impl Strategy<Value = (LinearRef, Settings, Vec<usize>)> {
+    (1usize..=11, 1usize..=11, 0usize..4, 8u8..=16)
+        .prop_flat_map(|(w, h, pad, bits)| {
+            let max = ((1u32 << bits) - 1) as u16;
+            (
+                Just((w, h, 3 * w + pad, bits)),
+                proptest::collection::vec(1u16..=max, 3),
+                proptest::collection::vec(any::<u16>(), 3),
+                proptest::collection::vec(
+                    prop_oneof![Just(0u16), Just(max), 0..=max],
+                    (h - 1) * (3 * w + pad) + 3 * w,
+                ),
+                settings_strategy(w, h),
+                proptest::collection::vec(1usize..=h, h),
+            )
+        })
+        .prop_map(|((w, h, stride, bits), white, black, data, mut s, bands)| {
+            s.defects.clear();
+            s.threshold = None;
+            let f = LinearRef {
+                data,
+                w,
+                h,
+                stride,
+                bits,
+                black: std::array::from_fn(|i| black[i] % white[i]),
+                white: [white[0], white[1], white[2]],
+            };
+            (f, s, bands)
+        })
 }
 
 fn frame_strategy() -> impl Strategy<Value = Frame> {
@@ -209,6 +285,57 @@ proptest! {
         prop_assert_eq!(run_float(&f, &s, &bands), run_float(&f, &s, &[f.h]));
         prop_assert_eq!(run_fixed(&f, &s, &bands), run_fixed(&f, &s, &[f.h]));
     }
+
+    /// A linear frame (already demosaiced) follows its documented semantics in the float
+    /// path, the fixed path stays within 2 LSB of it, and bands give the whole frame's output.
+    #[test]
+    fn linear_frames_match_reference((f, s, bands) in linear_case()) {
+        let ours = run_linear_float(&f, &s, &[f.h]);
+        let theirs = reference_linear(&f, &s);
+        for (i, (o, t)) in ours.chunks(3).zip(&theirs).enumerate() {
+            for c in 0..3 {
+                let exact = t[c] * 255.0;
+                let diff = (o[c] as f64 - exact).abs();
+                prop_assert!(diff <= 0.5 + 2e-3, "pixel {} channel {}: ours {} reference {:.4}", i, c, o[c], exact);
+            }
+        }
+        let fixed = run_linear_fixed(&f, &s, &[f.h]);
+        for (i, (a, b)) in ours.iter().zip(&fixed).enumerate() {
+            prop_assert!(a.abs_diff(*b) <= 2, "sample {}: float {} fixed {}", i, a, b);
+        }
+        prop_assert_eq!(run_linear_float(&f, &s, &bands), ours);
+        prop_assert_eq!(run_linear_fixed(&f, &s, &bands), fixed);
+    }
+}
+
+/// Defect correction reads a mosaic's neighbours of the same colour: asked of a linear frame
+/// it is refused, in both paths.
+#[test]
+fn linear_frames_refuse_defect_correction() {
+    let data = vec![100u16; 4 * 3 * 3];
+    let f = LinearRef {
+        data,
+        w: 4,
+        h: 3,
+        stride: 12,
+        bits: 12,
+        black: [0; 3],
+        white: [4095; 3],
+    };
+    let defects = [Defect { x: 1, y: 1 }];
+    let mut config = IspConfig::default();
+    config.dpc.static_defects = &defects;
+    let mut out = vec![0u8; 4 * 3 * 3];
+    let mut view = RgbViewMut::new(&mut out, 4, 3, 12).unwrap();
+    let float = FloatPipeline::new(&config).unwrap();
+    let mut scratch = vec![0.0; float.scratch_len(4, 3).unwrap()];
+    let err = float.run_linear(&f.frame(), 0..3, &mut scratch, &mut view);
+    assert!(err.unwrap_err().to_string().contains("linear"));
+    let fixed = FixedPipeline::new(&config, 8).unwrap();
+    let mut scratch = vec![0u16; fixed.scratch_len(4, 3).unwrap()];
+    assert!(fixed
+        .run_linear(&f.frame(), 0..3, &mut scratch, &mut view)
+        .is_err());
 }
 
 fn assert_matches_reference(f: &Frame, s: &Settings) {

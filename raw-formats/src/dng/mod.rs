@@ -1,20 +1,25 @@
 //! Raw DNG files: a reader for camera DNGs and a writer for camsim's captures.
 //!
-//! The reader ([`Dng::decode`]) follows the DNG 1.4 specification for CFA raws: either byte
-//! order; the raw image in IFD 0 or any SubIFD (NewSubfileType 0); samples of 8 to 16 bits,
-//! uncompressed (narrower than 16 bits packed most significant bit first, rows starting on a
-//! byte boundary) or lossless JPEG (Compression 7, [`crate::lossless_jpeg`]); strips or tiles
-//! (edge tiles padded); LinearizationTable; BlackLevel with any BlackLevelRepeatDim and
-//! BlackLevelDeltaH/V; WhiteLevel; ActiveArea (masked borders never reach the image); a 2x2
-//! CFA of R, G, B. DefaultCrop and Orientation are read into [`Framing`] for the developer to
-//! apply to its output. Anything else (other compressions, linear DNGs, non-Bayer CFAs) is
-//! refused with an error naming the tag and its value. Every offset and count is checked
+//! The reader ([`Dng::decode`]) follows the DNG 1.4 specification for raws: either byte
+//! order; the raw image in IFD 0 or any SubIFD (NewSubfileType 0); a 2x2 CFA of R, G, B
+//! (PhotometricInterpretation 32803) or LinearRaw (34892: already demosaiced, three samples per
+//! pixel, which [`RawImage`] holds as a linear frame); samples of 8 to 16 bits, uncompressed
+//! (narrower than 16 bits packed most significant bit first, rows starting on a byte
+//! boundary), lossless JPEG (Compression 7, [`crate::lossless_jpeg`]) or lossy JPEG (34892,
+//! 8-bit baseline, decoded by `jpeg-decoder`); strips or tiles (edge tiles padded);
+//! LinearizationTable; BlackLevel with any BlackLevelRepeatDim (per sample for LinearRaw) and
+//! BlackLevelDeltaH/V; WhiteLevel; ActiveArea (masked borders never reach the image);
+//! OpcodeList2's MapTable and MapPolynomial, applied to the samples on the list's
+//! black-to-white 0..=65535 scale (Adobe's lossy DNGs map their JPEG codes to linear so).
+//! DefaultCrop and Orientation are read into [`Framing`] for the developer to apply to its
+//! output. Anything else (other compressions, monochrome or planar LinearRaw, non-Bayer CFAs)
+//! is refused with an error naming the tag and its value. Every offset and count is checked
 //! against the file, and every buffer is sized only after the file has been shown to hold
 //! enough bytes for it, so a damaged file gives an error, never a panic or a huge allocation.
 //!
-//! The writer ([`Dng::encode`], [`Dng::encode_with`]) makes a CFA DNG (version 1.4) in either
-//! byte order, uncompressed at 8 to 16 bits or lossless-JPEG compressed, in one strip or in
-//! tiles, with the tags a raw converter needs: CFA pattern, black and white level, one or two
+//! The writer ([`Dng::encode`], [`Dng::encode_with`]) makes a CFA or LinearRaw DNG (version
+//! 1.4) in either byte order, uncompressed at 8 to 16 bits, lossless-JPEG or (8-bit samples)
+//! lossy-JPEG compressed, in one strip or in tiles, with the tags a raw converter needs: CFA pattern, black and white level, one or two
 //! colour matrices with their calibration illuminants, the as-shot neutral, and the framing.
 //! LibRaw (rawpy) reads these files; the oracle suite checks it.
 //!
@@ -376,6 +381,7 @@ pub(crate) mod tags {
     pub(crate) const FORWARD_MATRIX_2: u16 = 50965;
 
     pub(crate) const CFA_PHOTOMETRIC: u32 = 32803;
+    pub(crate) const LINEAR_RAW_PHOTOMETRIC: u32 = 34892;
 
     // Field types.
     pub(crate) const BYTE: u16 = 1;
@@ -661,6 +667,202 @@ mod tests {
         assert!(d.encode_with(&narrow).is_err());
     }
 
+    /// A linear (already demosaiced) 37 x 21 image of `bits`-bit samples with its own black
+    /// per channel.
+    fn linear_sample(bits: u8) -> Dng {
+        let (w, h) = (37, 21);
+        let max = (1u32 << bits) - 1;
+        let mut d = sample();
+        d.image = RawImage::linear_rgb(
+            w,
+            h,
+            bits,
+            [3, 5, 7],
+            max as u16,
+            (0..w * h * 3)
+                .map(|i| {
+                    // Smooth enough for a lossy JPEG to keep: a gradient per channel.
+                    let (x, y, c) = ((i / 3) % w, (i / 3) / w, i % 3);
+                    ((x * 5 + y * 3 + c * 40) as u32 * max / 400).min(max) as u16
+                })
+                .collect(),
+        )
+        .unwrap();
+        d.framing.orientation = Orientation::Rotate90;
+        d
+    }
+
+    #[test]
+    fn linear_raw_round_trips_in_every_lossless_storage() {
+        let d = linear_sample(14);
+        let storages = [
+            Storage::Uncompressed { bits: 16 },
+            Storage::Uncompressed { bits: 14 },
+            Storage::LosslessJpeg {
+                components: 3,
+                predictor: 1,
+            },
+            Storage::LosslessJpeg {
+                components: 3,
+                predictor: 7,
+            },
+        ];
+        for storage in storages {
+            for tile in [None, Some((16, 16))] {
+                for little_endian in [true, false] {
+                    let options = EncodeOptions {
+                        storage,
+                        tile,
+                        little_endian,
+                    };
+                    let bytes = d.encode_with(&options).unwrap();
+                    let back = Dng::decode(&bytes).unwrap_or_else(|e| panic!("{options:?}: {e}"));
+                    assert_eq!(back, d, "{options:?}");
+                    let bytes = d.encode_with_preview(&options).unwrap();
+                    assert_eq!(Dng::decode(&bytes).unwrap(), d, "SubIFD {options:?}");
+                }
+            }
+        }
+        // A CFA image's component counts do not fit a linear one.
+        let two = EncodeOptions {
+            storage: Storage::LosslessJpeg {
+                components: 2,
+                predictor: 1,
+            },
+            ..EncodeOptions::default()
+        };
+        assert!(d.encode_with(&two).is_err());
+    }
+
+    #[test]
+    fn lossy_jpeg_decodes_to_the_samples_within_its_loss() {
+        let d = linear_sample(8);
+        for tile in [None, Some((16, 16)), Some((32, 16))] {
+            let options = EncodeOptions {
+                storage: Storage::LossyJpeg { quality: 95 },
+                tile,
+                little_endian: false,
+            };
+            let bytes = d.encode_with(&options).unwrap();
+            let back = Dng::decode(&bytes).unwrap_or_else(|e| panic!("{options:?}: {e}"));
+            assert!(back.image.is_linear() && back.image.samples.len() == d.image.samples.len());
+            let worst = back
+                .image
+                .samples
+                .iter()
+                .zip(&d.image.samples)
+                .map(|(a, b)| a.abs_diff(*b))
+                .max()
+                .unwrap();
+            assert!(worst <= 8, "{options:?}: worst {worst}");
+            assert_ne!(back.image.samples, vec![0; back.image.samples.len()]);
+        }
+        // Through a LinearizationTable, as Adobe's lossy DNGs store 8-bit codes.
+        let table: Vec<u16> = (0..256u32).map(|v| (v * v) as u16).collect();
+        let options = EncodeOptions {
+            storage: Storage::LossyJpeg { quality: 100 },
+            ..EncodeOptions::default()
+        };
+        let bytes = d
+            .encode_with_entries(
+                &options,
+                vec![
+                    write::short(LINEARIZATION_TABLE, &table),
+                    write::short(WHITE_LEVEL, &[65025, 65025, 65025]),
+                ],
+            )
+            .unwrap();
+        let back = Dng::decode(&bytes).unwrap();
+        assert_eq!(back.image.white_level, 65025);
+        for (a, b) in back.image.samples.iter().zip(&d.image.samples) {
+            let code = f64::from(*a).sqrt();
+            assert!((code - f64::from(*b)).abs() <= 3.0, "{a} from {b}");
+        }
+        // Through OpcodeList2's MapPolynomial, as Adobe's converter maps them: on samples
+        // scaled to 0..=65535 above black, after which the image holds that scale.
+        let mut mapped = d.clone();
+        mapped.processing.opcode_lists[1] = vec![opcodes::Opcode::MapPolynomial {
+            region: opcodes::Region {
+                area: [0, 0, 21, 37],
+                plane: 0,
+                planes: 3,
+                row_pitch: 1,
+                col_pitch: 1,
+            },
+            coefficients: vec![0.0, 0.2, 0.8],
+        }];
+        let plain = Dng::decode(&d.encode_with(&options).unwrap()).unwrap();
+        let back = Dng::decode(&mapped.encode_with(&options).unwrap()).unwrap();
+        assert_eq!(
+            (back.image.white_level, back.image.black_level),
+            (65535, [0; 4])
+        );
+        for (i, (m, p)) in back
+            .image
+            .samples
+            .iter()
+            .zip(&plain.image.samples)
+            .enumerate()
+        {
+            let black = f64::from(d.image.black_level[i % 3]);
+            let x =
+                ((f64::from(*p) - black).max(0.0) * 65535.0 / (255.0 - black)).round() / 65535.0;
+            let expected = ((0.2 * x + 0.8 * x * x) * 65535.0).round();
+            assert_eq!(f64::from(*m), expected, "sample {i}");
+        }
+        // Samples past 8 bits cannot be stored so.
+        assert!(linear_sample(12).encode_with(&options).is_err());
+        // A 12-bit lossy JPEG is refused by name.
+        let twelve = d
+            .encode_with_entries(&options, vec![write::short(BITS_PER_SAMPLE, &[12, 12, 12])])
+            .unwrap();
+        let err = Dng::decode(&twelve).unwrap_err().to_string();
+        assert!(err.contains("34892") && err.contains("12"), "{err}");
+    }
+
+    #[test]
+    fn linear_levels_active_area_and_sample_counts() {
+        let d = linear_sample(12);
+        let options = EncodeOptions::default();
+        let decode = |entries| Dng::decode(&d.encode_with_entries(&options, entries).unwrap());
+        // ActiveArea crops whole pixels; per-channel whites are stretched to the largest.
+        let back = decode(vec![
+            write::long(ACTIVE_AREA, &[2, 3, 20, 35]),
+            write::short(WHITE_LEVEL, &[4095, 2047, 4095]),
+        ])
+        .unwrap();
+        assert_eq!((back.image.width, back.image.height), (32, 18));
+        assert_eq!(back.image.white_level, 4095);
+        let at =
+            |img: &RawImage, x: usize, y: usize, c: usize| img.samples[(y * img.width + x) * 3 + c];
+        assert_eq!(at(&back.image, 0, 0, 0), at(&d.image, 3, 2, 0));
+        let (src, black) = (f64::from(at(&d.image, 3, 2, 1)), 5.0);
+        let stretched =
+            (black + (src.min(2047.0) - black) * (4095.0 - black) / (2047.0 - black)).round();
+        assert_eq!(f64::from(at(&back.image, 0, 0, 1)), stretched.min(4095.0));
+        // A black level per sample with a 2x2 repeat comes off the samples.
+        let back = decode(vec![
+            write::short(BLACK_LEVEL_REPEAT_DIM, &[2, 2]),
+            write::short(
+                BLACK_LEVEL,
+                &[10, 20, 30, 11, 21, 31, 12, 22, 32, 13, 23, 33],
+            ),
+        ])
+        .unwrap();
+        assert_eq!(back.image.black_level, [10; 4]);
+        let expected = |x: usize, y: usize, c: usize| {
+            let black = [10, 20, 30][c] + (y % 2) * 2 + x % 2;
+            (at(&d.image, x, y, c) as usize).saturating_sub(black) as u16 + 10
+        };
+        assert_eq!(at(&back.image, 1, 1, 2), expected(1, 1, 2));
+        assert_eq!(at(&back.image, 4, 3, 0), expected(4, 3, 0));
+        // LinearRaw needs three samples per pixel, interleaved.
+        let err = decode(vec![write::short(SAMPLES_PER_PIXEL, &[4])]).unwrap_err();
+        assert!(err.to_string().contains("SamplesPerPixel"), "{err}");
+        let err = decode(vec![write::short(PLANAR_CONFIGURATION, &[2])]).unwrap_err();
+        assert!(err.to_string().contains("PlanarConfiguration"), "{err}");
+    }
+
     /// With a preview, IFD 0 is an 8-bit RGB image that is not the raw (NewSubFileType 1) and
     /// holds the camera-wide tags; the raw is found through SubIFDs with its opcodes.
     #[test]
@@ -674,7 +876,7 @@ mod tests {
         let bytes = d.encode_with_preview(&EncodeOptions::default()).unwrap();
         let file = tiff::Tiff::new(&bytes).unwrap();
         let ifd0 = file.ifd(file.u32_at(4).unwrap() as usize).unwrap();
-        assert!(!file.is_cfa_raw(&ifd0).unwrap());
+        assert!(!file.is_raw_image(&ifd0).unwrap());
         assert!(ifd0.get(SUB_IFDS).is_some() && ifd0.get(COLOR_MATRIX_1).is_some());
         assert!(ifd0.get(OPCODE_LISTS[2]).is_none());
         assert_eq!(Dng::decode(&bytes).unwrap(), d);

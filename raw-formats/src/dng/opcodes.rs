@@ -5,7 +5,9 @@
 //!
 //! Parsed here are the opcodes the pipeline has stages for: GainMap (lens shading),
 //! FixBadPixelsConstant and FixBadPixelsList (defect correction) and WarpRectilinear (lens
-//! distortion). Any other is kept as [`Opcode::Other`] with its id and flags, so the developer
+//! distortion), and the two the reader applies to OpcodeList2's samples, MapTable and
+//! MapPolynomial (Adobe's lossy DNGs map their 8-bit JPEG samples to linear with the latter).
+//! Any other is kept as [`Opcode::Other`] with its id and flags, so the developer
 //! can skip an optional one with a note and refuse one that is not optional, by name.
 
 use crate::error::{FormatError, Result};
@@ -38,9 +40,54 @@ pub struct GainMap {
     pub gains: Vec<f32>,
 }
 
+/// The samples an opcode applies to: a region, some planes, every `row_pitch`-th row and
+/// `col_pitch`-th column of it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Region {
+    /// `[top, left, bottom, right]`.
+    pub area: [u32; 4],
+    /// First plane.
+    pub plane: u32,
+    /// Number of planes.
+    pub planes: u32,
+    /// Row pitch (at least 1).
+    pub row_pitch: u32,
+    /// Column pitch (at least 1).
+    pub col_pitch: u32,
+}
+
+impl Region {
+    /// Whether sample `plane` of pixel `(x, y)` is in the region.
+    pub fn covers(&self, x: usize, y: usize, plane: usize) -> bool {
+        let [top, left, bottom, right] = self.area.map(|v| v as usize);
+        let first = self.plane as usize;
+        (top..bottom).contains(&y)
+            && (left..right).contains(&x)
+            && (first..first.saturating_add(self.planes as usize)).contains(&plane)
+            && (y - top).is_multiple_of(self.row_pitch.max(1) as usize)
+            && (x - left).is_multiple_of(self.col_pitch.max(1) as usize)
+    }
+}
+
 /// One opcode of a list.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Opcode {
+    /// MapTable (opcode 7): each sample of the region replaced by `table[sample]` (the last
+    /// entry for samples past its end), on the 16-bit scale of the list's stage.
+    MapTable {
+        /// The samples it applies to.
+        region: Region,
+        /// 1..=65536 entries.
+        table: Vec<u16>,
+    },
+    /// MapPolynomial (opcode 8): each sample of the region, as a fraction `x` of full scale,
+    /// replaced by `sum c_i x^i`, clipped to `[0, 1]`.
+    MapPolynomial {
+        /// The samples it applies to.
+        region: Region,
+        /// `c_0..=c_degree`, degree at most 8.
+        coefficients: Vec<f64>,
+    },
     /// WarpRectilinear (opcode 1): radial and tangential distortion per plane, about an optical
     /// centre given as fractions of the image size.
     WarpRectilinear {
@@ -84,6 +131,8 @@ impl Opcode {
             Opcode::FixBadPixelsConstant { .. } => "FixBadPixelsConstant",
             Opcode::FixBadPixelsList { .. } => "FixBadPixelsList",
             Opcode::GainMap(_) => "GainMap",
+            Opcode::MapTable { .. } => "MapTable",
+            Opcode::MapPolynomial { .. } => "MapPolynomial",
             Opcode::Other { id, .. } => match id {
                 2 => "WarpFisheye",
                 3 => "FixVignetteRadial",
@@ -380,8 +429,86 @@ fn parse_one(id: u32, optional: bool, params: &[u8]) -> Result<Opcode> {
                 gains,
             })
         }
+        7 | 8 => {
+            let area = [r.u32()?, r.u32()?, r.u32()?, r.u32()?];
+            let region = Region {
+                area,
+                plane: r.u32()?,
+                planes: r.u32()?,
+                row_pitch: r.u32()?,
+                col_pitch: r.u32()?,
+            };
+            if region.row_pitch == 0 || region.col_pitch == 0 {
+                return Err(FormatError::OutOfRange {
+                    field: "MapTable/MapPolynomial pitch",
+                    value: format!("{}x{}", region.row_pitch, region.col_pitch),
+                    allowed: "at least 1 each".into(),
+                });
+            }
+            let n = r.u32()?;
+            if id == 7 {
+                if !(1..=65536).contains(&n) {
+                    return Err(FormatError::OutOfRange {
+                        field: "MapTable size",
+                        value: n.to_string(),
+                        allowed: "1..=65536".into(),
+                    });
+                }
+                let n = r.room_for(u64::from(n), 2, "MapTable entries")?;
+                let mut table = Vec::with_capacity(n);
+                for _ in 0..n {
+                    let [a, b] = r.take()?;
+                    table.push(u16::from_be_bytes([a, b]));
+                }
+                Opcode::MapTable { region, table }
+            } else {
+                if n > 8 {
+                    return Err(FormatError::OutOfRange {
+                        field: "MapPolynomial degree",
+                        value: n.to_string(),
+                        allowed: "0..=8".into(),
+                    });
+                }
+                let mut coefficients = Vec::with_capacity(n as usize + 1);
+                for _ in 0..=n {
+                    coefficients.push(r.f64()?);
+                }
+                Opcode::MapPolynomial {
+                    region,
+                    coefficients,
+                }
+            }
+        }
         _ => Opcode::Other { id, optional },
     })
+}
+
+impl Opcode {
+    /// For MapTable and MapPolynomial, the mapped value of a sample `v` of plane `plane` at
+    /// pixel `(x, y)` on the 0..=65535 scale; `None` for other opcodes or samples outside
+    /// the region.
+    pub fn map_sample(&self, x: usize, y: usize, plane: usize, v: u16) -> Option<u16> {
+        match self {
+            Opcode::MapTable { region, table } if region.covers(x, y, plane) => {
+                table.get(usize::from(v)).or(table.last()).copied()
+            }
+            Opcode::MapPolynomial {
+                region,
+                coefficients,
+            } if region.covers(x, y, plane) => {
+                let t = f64::from(v) / 65535.0;
+                // Horner's rule from the highest coefficient.
+                let y = coefficients.iter().rev().fold(0.0, |acc, c| acc * t + c);
+                let y = if y.is_finite() {
+                    y.clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                Some((y * 65535.0).round() as u16)
+            }
+            _ => None,
+        }
+    }
 }
 
 /// Parses an opcode list's bytes.
@@ -457,6 +584,39 @@ pub fn encode(list: &[Opcode]) -> Vec<u8> {
                     .for_each(|v| p.extend_from_slice(&v.to_be_bytes()));
                 (9, false)
             }
+            Opcode::MapTable { region, table } => {
+                region.area.iter().for_each(|v| u(&mut p, *v));
+                for v in [
+                    region.plane,
+                    region.planes,
+                    region.row_pitch,
+                    region.col_pitch,
+                ] {
+                    u(&mut p, v);
+                }
+                u(&mut p, table.len() as u32);
+                table
+                    .iter()
+                    .for_each(|v| p.extend_from_slice(&v.to_be_bytes()));
+                (7, false)
+            }
+            Opcode::MapPolynomial {
+                region,
+                coefficients,
+            } => {
+                region.area.iter().for_each(|v| u(&mut p, *v));
+                for v in [
+                    region.plane,
+                    region.planes,
+                    region.row_pitch,
+                    region.col_pitch,
+                ] {
+                    u(&mut p, v);
+                }
+                u(&mut p, coefficients.len().saturating_sub(1) as u32);
+                coefficients.iter().for_each(|v| d(&mut p, *v));
+                (8, false)
+            }
             Opcode::Other { id, optional } => (*id, *optional),
         };
         out.extend_from_slice(&id.to_be_bytes());
@@ -499,11 +659,50 @@ mod tests {
                 planes: vec![[1.0, -0.02, 0.001, 0.0, 0.0001, -0.0002]],
                 centre: [0.5, 0.5],
             },
+            Opcode::MapTable {
+                region: Region {
+                    area: [0, 0, 10, 12],
+                    plane: 0,
+                    planes: 3,
+                    row_pitch: 1,
+                    col_pitch: 1,
+                },
+                table: vec![0, 100, 400, 900],
+            },
+            Opcode::MapPolynomial {
+                region: Region {
+                    area: [2, 2, 8, 8],
+                    plane: 1,
+                    planes: 1,
+                    row_pitch: 1,
+                    col_pitch: 2,
+                },
+                coefficients: vec![0.0, 0.5, 0.5],
+            },
             Opcode::Other {
-                id: 7,
+                id: 10,
                 optional: true,
             },
         ]
+    }
+
+    #[test]
+    fn maps_apply_inside_their_region() {
+        let list = every_kind();
+        let table = &list[4];
+        assert_eq!(table.map_sample(3, 3, 2, 2), Some(400));
+        assert_eq!(table.map_sample(3, 3, 2, 60000), Some(900));
+        assert_eq!(table.map_sample(12, 3, 0, 2), None);
+        let poly = &list[5];
+        // 0.5 x + 0.5 x^2 at x = 1/2 is 3/8.
+        assert_eq!(poly.map_sample(2, 2, 1, 32768), Some(24576));
+        assert_eq!(
+            poly.map_sample(3, 2, 1, 32768),
+            None,
+            "off the column pitch"
+        );
+        assert_eq!(poly.map_sample(2, 2, 0, 32768), None, "another plane");
+        assert_eq!(list[0].map_sample(2, 2, 0, 5), None);
     }
 
     #[test]
@@ -518,7 +717,9 @@ mod tests {
                 "FixBadPixelsConstant",
                 "FixBadPixelsList",
                 "WarpRectilinear",
-                "MapTable"
+                "MapTable",
+                "MapPolynomial",
+                "DeltaPerRow"
             ]
         );
     }

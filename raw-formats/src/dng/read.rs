@@ -20,6 +20,9 @@ enum Coding {
     Uncompressed { bits: u32, little: bool },
     /// Compression 7: a lossless JPEG per strip or tile.
     LosslessJpeg,
+    /// Compression 34892: a baseline (lossy) JPEG of 8-bit samples per strip or tile, as
+    /// Adobe's converter writes for lossy DNGs (its LinearizationTable restores linear values).
+    LossyJpeg,
 }
 
 /// One strip or tile: where its bytes are and which pixels it covers (a tile may reach past
@@ -48,12 +51,12 @@ impl Dng {
         }
         // The raw image: IFD 0 if it is the CFA image, else the SubIFD that is.
         let mut raw_ifd = None;
-        if file.is_cfa_raw(&ifd0)? {
+        if file.is_raw_image(&ifd0)? {
             raw_ifd = Some(ifd0.clone());
         } else if let Some(sub) = ifd0.get(SUB_IFDS) {
             for offset in file.values(sub)?.into_iter().take(16) {
                 let ifd = file.ifd(offset as usize)?;
-                if file.is_cfa_raw(&ifd)? {
+                if file.is_raw_image(&ifd)? {
                     raw_ifd = Some(ifd);
                     break;
                 }
@@ -148,14 +151,23 @@ impl Tiff<'_> {
         Ok(segments)
     }
 
-    /// Decodes one segment's samples into `out` (resized to its width x height only once the
-    /// bytes are known to hold that many).
-    fn decode_segment(&self, segment: &Segment, coding: Coding, out: &mut Vec<u16>) -> Result<()> {
+    /// Decodes one segment's samples (`spp` per pixel) into `out` (resized only once the bytes
+    /// are known to hold that many); returns the samples from one decoded row to the next,
+    /// which is the segment's width times `spp` except for a lossy JPEG coded only as large as
+    /// the image part of an edge tile.
+    fn decode_segment(
+        &self,
+        segment: &Segment,
+        coding: Coding,
+        spp: usize,
+        out: &mut Vec<u16>,
+    ) -> Result<usize> {
         let bytes = self.bytes(segment.offset, segment.len)?;
-        let samples = segment.width * segment.height;
+        let row_samples = segment.width * spp;
+        let samples = row_samples * segment.height;
         match coding {
             Coding::Uncompressed { bits, little } => {
-                let row_bytes = (segment.width * bits as usize).div_ceil(8);
+                let row_bytes = (row_samples * bits as usize).div_ceil(8);
                 let needed = row_bytes * segment.height;
                 if bytes.len() < needed {
                     return Err(FormatError::SizeMismatch {
@@ -176,9 +188,10 @@ impl Tiff<'_> {
                                 u16::from_be_bytes([b[0], b[1]])
                             }
                         })),
-                        _ => unpack_msb_first(row, bits, segment.width, out),
+                        _ => unpack_msb_first(row, bits, row_samples, out),
                     }
                 }
+                Ok(row_samples)
             }
             Coding::LosslessJpeg => {
                 let frame = lossless_jpeg::frame(bytes)?;
@@ -193,9 +206,15 @@ impl Tiff<'_> {
                 out.clear();
                 out.resize(samples, 0);
                 lossless_jpeg::decode(bytes, out)?;
+                Ok(row_samples)
+            }
+            Coding::LossyJpeg => {
+                let (width, decoded) = decode_lossy_jpeg(bytes, segment, spp)?;
+                out.clear();
+                out.extend(decoded.iter().map(|v| u16::from(*v)));
+                Ok(width * spp)
             }
         }
-        Ok(())
     }
 
     pub(super) fn read_raw(&self, ifd: &Ifd, ifd0: &Ifd) -> Result<Dng> {
@@ -208,9 +227,38 @@ impl Tiff<'_> {
                 allowed: "1..=65535".into(),
             });
         }
-        let bits = self.one(ifd, BITS_PER_SAMPLE, "BitsPerSample")?;
+        // A CFA image has one sample per pixel; a LinearRaw one (already demosaiced) three.
+        let linear = self.first(ifd, PHOTOMETRIC)? == Some(f64::from(LINEAR_RAW_PHOTOMETRIC));
+        let spp = self.first(ifd, SAMPLES_PER_PIXEL)?.unwrap_or(1.0);
+        if spp != if linear { 3.0 } else { 1.0 } {
+            return Err(FormatError::Unsupported {
+                field: "SamplesPerPixel",
+                value: spp.to_string(),
+                supported: "1 for a CFA image, 3 (RGB) for a LinearRaw one",
+            });
+        }
+        let spp = spp as usize;
+        if linear {
+            let planar = self.first(ifd, PLANAR_CONFIGURATION)?.unwrap_or(1.0);
+            if planar != 1.0 {
+                return Err(FormatError::Unsupported {
+                    field: "PlanarConfiguration",
+                    value: planar.to_string(),
+                    supported: "1 (a pixel's samples together)",
+                });
+            }
+        }
+        let all_bits = self.values(Self::required(ifd, BITS_PER_SAMPLE, "BitsPerSample")?)?;
+        let bits = all_bits.first().copied().unwrap_or(0);
         if !(8..=16).contains(&bits) {
             return Err(FormatError::SampleBits { bits });
+        }
+        if all_bits.iter().any(|b| *b != bits) {
+            return Err(FormatError::Unsupported {
+                field: "BitsPerSample",
+                value: format!("{all_bits:?}"),
+                supported: "the same depth for every sample",
+            });
         }
         let compression = self.first(ifd, COMPRESSION)?.unwrap_or(1.0) as u32;
         let coding = match compression {
@@ -219,45 +267,58 @@ impl Tiff<'_> {
                 little: self.little,
             },
             7 => Coding::LosslessJpeg,
+            34892 if bits == 8 => Coding::LossyJpeg,
+            34892 => {
+                return Err(FormatError::Unsupported {
+                    field: "BitsPerSample with Compression 34892 (lossy JPEG)",
+                    value: bits.to_string(),
+                    supported: "8",
+                })
+            }
             value => return Err(FormatError::Compression { value }),
         };
-        let samples = self.first(ifd, SAMPLES_PER_PIXEL)?.unwrap_or(1.0);
-        if samples != 1.0 {
-            return Err(FormatError::Unsupported {
-                field: "SamplesPerPixel",
-                value: samples.to_string(),
-                supported: "a CFA image has 1",
-            });
-        }
-        let pattern = self.cfa_pattern(ifd)?;
+        let pattern = if linear {
+            CfaPattern::Rggb
+        } else {
+            self.cfa_pattern(ifd)?
+        };
 
         // Each sample takes at least one bit of the file: a header cannot claim more.
-        if width * height > self.data.len().saturating_mul(8) {
+        let total = width * height * spp;
+        if total > self.data.len().saturating_mul(8) {
             return Err(FormatError::SizeMismatch {
                 what: "bytes for the image's samples",
                 found: self.data.len(),
-                expected: (width * height).div_ceil(8),
+                expected: total.div_ceil(8),
             });
         }
         let segments = self.segments(ifd, width, height)?;
-        let mut raw = vec![0u16; width * height];
+        let mut raw = vec![0u16; total];
         let mut scratch = Vec::new();
         for segment in &segments {
-            self.decode_segment(segment, coding, &mut scratch)?;
-            let cols = segment.width.min(width - segment.x);
+            let stride = self.decode_segment(segment, coding, spp, &mut scratch)?;
+            let cols = segment.width.min(width - segment.x) * spp;
             let rows = segment.height.min(height - segment.y);
+            if stride < cols || scratch.len() < rows * stride {
+                return Err(FormatError::SizeMismatch {
+                    what: "decoded samples of a strip or tile",
+                    found: scratch.len(),
+                    expected: rows * cols,
+                });
+            }
             for r in 0..rows {
-                let to = (segment.y + r) * width + segment.x;
-                raw[to..to + cols]
-                    .copy_from_slice(&scratch[r * segment.width..r * segment.width + cols]);
+                let to = ((segment.y + r) * width + segment.x) * spp;
+                raw[to..to + cols].copy_from_slice(&scratch[r * stride..r * stride + cols]);
             }
         }
 
         // OpcodeList1 applies to the samples as stored (DNG 1.4, chapter 7): its bad pixels are
-        // found now, in stored coordinates.
+        // found now, in stored coordinates. (Bad-pixel opcodes are for CFA images.)
         let lists = self.opcode_lists(ifd)?;
         let mut bad_stored = Vec::new();
-        bad_pixels_of(&lists[0], &raw, width, height, |v| v, &mut bad_stored);
+        if !linear {
+            bad_pixels_of(&lists[0], &raw, width, height, |v| v, &mut bad_stored);
+        }
 
         // LinearizationTable maps stored codes to linear values (the last entry for codes
         // past its end, as the DNG SDK does).
@@ -286,11 +347,15 @@ impl Tiff<'_> {
             _ => (0, 0),
         };
         let (width, height, mut raw) = match &area {
-            Some(area) => crop_to_active_area(raw, width, height, area)?,
+            Some(area) => crop_to_active_area(raw, width, height, spp, area)?,
             None => (width, height, raw),
         };
 
-        let white = self.first(ifd, WHITE_LEVEL)?.unwrap_or(max_code);
+        let whites = match ifd.get(WHITE_LEVEL) {
+            Some(e) => self.numbers(e)?,
+            None => vec![max_code],
+        };
+        let white = whites.iter().copied().fold(f64::NAN, f64::max);
         let level = |v: f64, field: &'static str| -> Result<u16> {
             if v.is_finite() && (0.0..=max_code).contains(&v) {
                 Ok(v.round() as u16)
@@ -303,18 +368,54 @@ impl Tiff<'_> {
             }
         };
         let white_level = level(white, "WhiteLevel")?;
-        let black_level = self.black_levels(ifd, width, height, &mut raw, white_level)?;
+        let black_level = self.black_levels(ifd, width, height, spp, &mut raw, white_level)?;
+        if linear && whites.len() == 3 && whites.iter().any(|w| *w != white) {
+            // Channels that clip lower are stretched to the common white: the pipeline holds
+            // one white level per frame.
+            for (c, w) in whites.iter().enumerate() {
+                let own = level(*w, "WhiteLevel")?;
+                let b = f64::from(black_level[c]);
+                if f64::from(own) <= b {
+                    return Err(FormatError::OutOfRange {
+                        field: "WhiteLevel",
+                        value: own.to_string(),
+                        allowed: format!("above the channel's black level {b}"),
+                    });
+                }
+                let scale = (f64::from(white_level) - b) / (f64::from(own) - b);
+                for v in raw.iter_mut().skip(c).step_by(3) {
+                    *v = (b + (f64::from(*v) - b).max(0.0) * scale)
+                        .round()
+                        .min(f64::from(white_level)) as u16;
+                }
+            }
+        }
         // The significant bits: those the white level needs (8 at least).
         let significant = (16 - white_level.leading_zeros()).clamp(8, 16) as u8;
-        let image = RawImage::new(
-            width,
-            height,
-            pattern,
-            significant,
-            black_level,
-            white_level,
-            raw,
-        )?;
+        let mut image = if linear {
+            RawImage::linear_rgb(
+                width,
+                height,
+                significant,
+                [black_level[0], black_level[1], black_level[2]],
+                white_level,
+                raw,
+            )?
+        } else {
+            RawImage::new(
+                width,
+                height,
+                pattern,
+                significant,
+                black_level,
+                white_level,
+                raw,
+            )?
+        };
+        apply_stage2_maps(&mut image, &lists[1]);
+        // Applied: the image holds their result, and a writer must not store them again.
+        let mut lists = lists;
+        lists[1].retain(|op| !is_map(op));
         let framing = self.framing(ifd, ifd0, width, height)?;
         // OpcodeLists 2 and 3 apply in the active area, to samples scaled so black is 0 and
         // white 65535 (the DNG SDK's stage 2): a FixBadPixelsConstant there compares on that
@@ -331,8 +432,10 @@ impl Tiff<'_> {
                 .round()
                 .clamp(0.0, 65535.0) as u16
         };
-        for list in &lists[1..] {
-            bad_pixels_of(list, &image.samples, width, height, scaled, &mut bad);
+        if !linear {
+            for list in &lists[1..] {
+                bad_pixels_of(list, &image.samples, width, height, scaled, &mut bad);
+            }
         }
         let mut bad_pixels: Vec<isp_core::dpc::Defect> = bad
             .into_iter()
@@ -413,12 +516,15 @@ impl Tiff<'_> {
     /// columns, and BlackLevelDeltaH/V add one value per column and row of the active area
     /// (DNG 1.4). A pattern a 2x2 block holds (repeats of 1 or 2, integer values, no deltas)
     /// is returned as is; any other is subtracted from the samples here, down to a uniform
-    /// black that is returned, so the ISP sees the same signal above black.
+    /// black that is returned, so the ISP sees the same signal above black. A LinearRaw image
+    /// (`spp` 3) has one value per sample in each repeat cell; one cell of integers without
+    /// deltas is returned as each channel's black (R, G, B, G).
     fn black_levels(
         &self,
         ifd: &Ifd,
         width: usize,
         height: usize,
+        spp: usize,
         raw: &mut [u16],
         white: u16,
     ) -> Result<[u16; 4]> {
@@ -438,13 +544,14 @@ impl Tiff<'_> {
         };
         let values = match ifd.get(BLACK_LEVEL) {
             Some(e) => self.numbers(e)?,
-            None => vec![0.0; rows * cols],
+            None => vec![0.0; rows * cols * spp],
         };
-        if values.len() != rows * cols || !values.iter().all(|v| v.is_finite() && *v >= 0.0) {
+        if values.len() != rows * cols * spp || !values.iter().all(|v| v.is_finite() && *v >= 0.0) {
             return Err(FormatError::Unsupported {
                 field: "BlackLevel",
                 value: format!("{} values", values.len()),
-                supported: "BlackLevelRepeatDim rows x columns non-negative values",
+                supported:
+                    "BlackLevelRepeatDim rows x columns x SamplesPerPixel non-negative values",
             });
         }
         let delta = |tag: u16, name: &'static str, n: usize| -> Result<Option<Vec<f64>>> {
@@ -471,9 +578,9 @@ impl Tiff<'_> {
             "BlackLevelDeltaV values (one per row)",
             height,
         )?;
-        let at = |x: usize, y: usize| values[(y % rows) * cols + x % cols];
-        let simple = rows <= 2
-            && cols <= 2
+        let at = |x: usize, y: usize, s: usize| values[((y % rows) * cols + x % cols) * spp + s];
+        let simple = rows <= if spp == 1 { 2 } else { 1 }
+            && cols <= if spp == 1 { 2 } else { 1 }
             && delta_h.is_none()
             && delta_v.is_none()
             && values.iter().all(|v| v.fract() == 0.0);
@@ -488,28 +595,35 @@ impl Tiff<'_> {
                 })
             }
         };
-        if simple {
+        if simple && spp == 1 {
             let mut black = [0u16; 4];
             for (p, b) in black.iter_mut().enumerate() {
-                *b = checked(at(p % 2, p / 2))?;
+                *b = checked(at(p % 2, p / 2, 0))?;
             }
             return Ok(black);
         }
-        let black_at = |x: usize, y: usize| {
-            at(x, y)
+        if simple {
+            let [r, g, b] = [0, 1, 2].map(|s| checked(at(0, 0, s)));
+            let g = g?;
+            return Ok([r?, g, b?, g]);
+        }
+        let black_at = |x: usize, y: usize, s: usize| {
+            at(x, y, s)
                 + delta_h.as_ref().map_or(0.0, |d| d[x])
                 + delta_v.as_ref().map_or(0.0, |d| d[y])
         };
         let mut floor = f64::INFINITY;
         for y in 0..height {
             for x in 0..width {
-                floor = floor.min(black_at(x, y));
+                for s in 0..spp {
+                    floor = floor.min(black_at(x, y, s));
+                }
             }
         }
         let base = checked(floor.max(0.0).floor())?;
-        for (y, row) in raw.chunks_exact_mut(width).enumerate() {
-            for (x, v) in row.iter_mut().enumerate() {
-                let above = f64::from(*v) - black_at(x, y) + f64::from(base);
+        for (y, row) in raw.chunks_exact_mut(width * spp).enumerate() {
+            for (i, v) in row.iter_mut().enumerate() {
+                let above = f64::from(*v) - black_at(i / spp, y, i % spp) + f64::from(base);
                 *v = above.round().clamp(0.0, 65535.0) as u16;
             }
         }
@@ -693,6 +807,7 @@ fn crop_to_active_area(
     raw: Vec<u16>,
     width: usize,
     height: usize,
+    spp: usize,
     area: &[u32],
 ) -> Result<(usize, usize, Vec<u16>)> {
     let [top, left, bottom, right] = match area {
@@ -716,11 +831,96 @@ fn crop_to_active_area(
         return Ok((width, height, raw));
     }
     let (w, h) = (right - left, bottom - top);
-    let mut out = Vec::with_capacity(w * h);
-    for row in raw.chunks_exact(width).skip(top).take(h) {
-        out.extend_from_slice(&row[left..right]);
+    let mut out = Vec::with_capacity(w * h * spp);
+    for row in raw.chunks_exact(width * spp).skip(top).take(h) {
+        out.extend_from_slice(&row[left * spp..right * spp]);
     }
     Ok((w, h, out))
+}
+
+/// Whether `op` is a MapTable or MapPolynomial.
+fn is_map(op: &opcodes::Opcode) -> bool {
+    matches!(
+        op,
+        opcodes::Opcode::MapTable { .. } | opcodes::Opcode::MapPolynomial { .. }
+    )
+}
+
+/// OpcodeList2's MapTable and MapPolynomial, in list order, on samples scaled so black is 0
+/// and white 65535 (the DNG SDK's stage 2, where list 2 runs); the image then holds that
+/// scale (16 bits, black 0). An image without them is left as it is. (A GainMap listed before
+/// a map is applied after it, in the pipeline's shading stage.)
+fn apply_stage2_maps(image: &mut RawImage, list: &[opcodes::Opcode]) {
+    let maps: Vec<&opcodes::Opcode> = list.iter().filter(|op| is_map(op)).collect();
+    if maps.is_empty() {
+        return;
+    }
+    let spp = usize::from(image.samples_per_pixel);
+    let (width, white, black) = (image.width, image.white_level, image.black_level);
+    for (i, v) in image.samples.iter_mut().enumerate() {
+        let (pixel, plane) = (i / spp, i % spp);
+        let (x, y) = (pixel % width, pixel / width);
+        let b = if spp == 1 {
+            black[(y & 1) * 2 + (x & 1)]
+        } else {
+            black[plane]
+        };
+        let span = f64::from(white.saturating_sub(b).max(1));
+        let scaled = (f64::from(v.saturating_sub(b)) * 65535.0 / span).round();
+        let mut s = scaled.min(65535.0) as u16;
+        for op in &maps {
+            if let Some(mapped) = op.map_sample(x, y, plane, s) {
+                s = mapped;
+            }
+        }
+        *v = s;
+    }
+    image.black_level = [0; 4];
+    image.white_level = 65535;
+    image.bits = 16;
+}
+
+/// Decodes a strip's or tile's baseline JPEG (Compression 34892) of `spp` 8-bit components
+/// (3 coded as YCbCr, as libjpeg writes RGB): its width in pixels and the samples, a pixel's
+/// together. The JPEG is the segment's size, or for an edge tile at least the image part of it
+/// (some writers code only that); its header is checked against that before anything is
+/// decoded, so a damaged file cannot make the decoder allocate more than the tile.
+fn decode_lossy_jpeg(bytes: &[u8], segment: &Segment, spp: usize) -> Result<(usize, Vec<u8>)> {
+    let damaged = |e: jpeg_decoder::Error| FormatError::LossyJpeg {
+        problem: e.to_string(),
+    };
+    let mut decoder = jpeg_decoder::Decoder::new(bytes);
+    decoder.read_info().map_err(damaged)?;
+    let info = decoder.info().ok_or(FormatError::LossyJpeg {
+        problem: "no frame header".into(),
+    })?;
+    let (w, h) = (usize::from(info.width), usize::from(info.height));
+    let components = match info.pixel_format {
+        jpeg_decoder::PixelFormat::L8 => 1,
+        jpeg_decoder::PixelFormat::RGB24 => 3,
+        other => {
+            return Err(FormatError::LossyJpeg {
+                problem: format!("{other:?} samples (8-bit greyscale or RGB expected)"),
+            })
+        }
+    };
+    if components != spp || w > segment.width || h > segment.height || w == 0 || h == 0 {
+        return Err(FormatError::SizeMismatch {
+            what: "lossy JPEG width x height x components in a strip or tile",
+            found: w * h * components,
+            expected: segment.width * segment.height * spp,
+        });
+    }
+    decoder.set_max_decoding_buffer_size(segment.width * segment.height * spp);
+    let samples = decoder.decode().map_err(damaged)?;
+    if samples.len() != w * h * spp {
+        return Err(FormatError::SizeMismatch {
+            what: "lossy JPEG samples in a strip or tile",
+            found: samples.len(),
+            expected: w * h * spp,
+        });
+    }
+    Ok((w, samples))
 }
 
 #[cfg(test)]
@@ -753,20 +953,20 @@ mod tests {
     #[test]
     fn active_area_crops_the_masked_borders() {
         let raw: Vec<u16> = (0..20).collect(); // 5 x 4
-        let (w, h, inner) = crop_to_active_area(raw.clone(), 5, 4, &[1, 2, 3, 5]).unwrap();
+        let (w, h, inner) = crop_to_active_area(raw.clone(), 5, 4, 1, &[1, 2, 3, 5]).unwrap();
         assert_eq!((w, h, inner), (3, 2, vec![7, 8, 9, 12, 13, 14]));
         assert_eq!(
-            crop_to_active_area(raw.clone(), 5, 4, &[0, 0, 4, 5])
+            crop_to_active_area(raw.clone(), 5, 4, 1, &[0, 0, 4, 5])
                 .unwrap()
                 .2,
             raw
         );
         for bad in [[2, 0, 2, 5], [0, 0, 5, 5], [0, 3, 4, 3]] {
             assert!(
-                crop_to_active_area(raw.clone(), 5, 4, &bad).is_err(),
+                crop_to_active_area(raw.clone(), 5, 4, 1, &bad).is_err(),
                 "{bad:?}"
             );
         }
-        assert!(crop_to_active_area(raw, 5, 4, &[0, 0, 4]).is_err());
+        assert!(crop_to_active_area(raw, 5, 4, 1, &[0, 0, 4]).is_err());
     }
 }

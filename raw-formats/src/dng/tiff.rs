@@ -189,7 +189,7 @@ impl<'a> Tiff<'a> {
         Some(String::from_utf8_lossy(&b[..end]).into_owned())
     }
 
-    pub(super) fn is_cfa_raw(&self, ifd: &Ifd) -> Result<bool> {
+    pub(super) fn is_raw_image(&self, ifd: &Ifd) -> Result<bool> {
         let subfile = ifd
             .get(NEW_SUBFILE_TYPE)
             .map(|e| self.values(e))
@@ -201,6 +201,6 @@ impl<'a> Tiff<'a> {
             .map(|e| self.values(e))
             .transpose()?
             .and_then(|v| v.first().copied());
-        Ok(subfile == 0 && photometric == Some(CFA_PHOTOMETRIC))
+        Ok(subfile == 0 && matches!(photometric, Some(CFA_PHOTOMETRIC | LINEAR_RAW_PHOTOMETRIC)))
     }
 }

@@ -1,5 +1,6 @@
-//! The DNG writer: one IFD holding the CFA image, in either byte order, uncompressed (8 to 16
-//! bits, packed most significant bit first) or lossless-JPEG compressed, in strips or tiles.
+//! The DNG writer: one IFD holding the CFA or LinearRaw image, in either byte order,
+//! uncompressed (8 to 16 bits, packed most significant bit first), lossless-JPEG or (8-bit
+//! samples) lossy-JPEG compressed, in strips or tiles.
 
 use std::borrow::Cow;
 use std::path::Path;
@@ -23,12 +24,19 @@ pub enum Storage {
     /// Compression 7: each strip or tile a lossless JPEG, its precision the image's bit
     /// depth. With 2 components a tile of width W is coded W/2 wide with its two CFA
     /// columns interleaved (as Adobe's converter writes; W must be even), with 1 as a plain
-    /// greyscale frame.
+    /// greyscale frame. A linear image is coded with 3 (its pixels' R, G, B interleaved).
     LosslessJpeg {
-        /// 1 or 2.
+        /// 1 or 2 for a CFA image, 3 for a linear one.
         components: u8,
         /// Predictor 1..=7.
         predictor: u8,
+    },
+    /// Compression 34892: each strip or tile a baseline JPEG at `quality` (1..=100), RGB coded
+    /// as YCbCr (chroma not subsampled) for a linear image, greyscale for a CFA one. The samples must be 8-bit (a
+    /// lossy DNG's LinearizationTable maps them to linear values).
+    LossyJpeg {
+        /// JPEG quality, 1..=100.
+        quality: u8,
     },
 }
 
@@ -234,6 +242,7 @@ impl Dng {
     /// The samples of each strip or tile, coded as `options` says.
     fn segments(&self, options: &EncodeOptions) -> Result<Vec<Vec<u8>>> {
         let image = &self.image;
+        let spp = usize::from(image.samples_per_pixel);
         let (cell_w, cell_h) = match options.tile {
             Some((w, h)) => {
                 if w == 0 || h == 0 || w % 16 != 0 || h % 16 != 0 || w > 65535 || h > 65535 {
@@ -259,11 +268,14 @@ impl Dng {
             for ty in 0..down {
                 for tx in 0..across {
                     let (x0, x1) = (tx * cell_w, ((tx + 1) * cell_w).min(image.width));
-                    let mut cell = Vec::with_capacity(cell_w * cell_h);
+                    let mut cell = Vec::with_capacity(cell_w * cell_h * spp);
                     for y in ty * cell_h..(ty + 1) * cell_h {
-                        let row = &image.samples[y.min(image.height - 1) * image.width..];
-                        cell.extend_from_slice(&row[x0..x1]);
-                        cell.resize(cell.len() + cell_w - (x1 - x0), row[x1 - 1]);
+                        let row = &image.samples[y.min(image.height - 1) * image.width * spp..];
+                        cell.extend_from_slice(&row[x0 * spp..x1 * spp]);
+                        let last = &row[(x1 - 1) * spp..x1 * spp];
+                        for _ in x1 - x0..cell_w {
+                            cell.extend_from_slice(last);
+                        }
                     }
                     cells.push(Cow::Owned(cell));
                 }
@@ -283,7 +295,7 @@ impl Dng {
                         });
                     }
                     let mut out = Vec::new();
-                    for row in cell.chunks_exact(cell_w) {
+                    for row in cell.chunks_exact(cell_w * spp) {
                         match bits {
                             8 => out.extend(row.iter().map(|v| *v as u8)),
                             16 => out.extend(
@@ -300,20 +312,47 @@ impl Dng {
                     predictor,
                 } => {
                     let n = usize::from(components);
-                    if !(1..=2).contains(&n) || cell_w % n != 0 || cell_w / n > 65535 {
+                    // Components that share a line: a CFA's columns, or a pixel's samples.
+                    let columns = if spp == 1 { n } else { 1 };
+                    let allowed = if spp == 1 { (1..=2).contains(&n) } else { n == spp };
+                    if !allowed || cell_w % columns != 0 || cell_w / columns > 65535 {
                         return Err(FormatError::OutOfRange {
                             field: "lossless JPEG components",
                             value: components.to_string(),
-                            allowed: "1, or 2 with an even strip or tile width".into(),
+                            allowed: "1, or 2 with an even strip or tile width, for a CFA image; 3 for a linear one".into(),
                         });
                     }
                     let frame = Frame {
                         precision: image.bits,
                         lines: cell_h as u16,
-                        samples_per_line: (cell_w / n) as u16,
+                        samples_per_line: (cell_w / columns) as u16,
                         components,
                     };
                     lossless_jpeg::encode(cell, frame, predictor, 0, 0)
+                }
+                Storage::LossyJpeg { quality } => {
+                    if !(1..=100).contains(&quality) || cell.iter().any(|v| *v > 255) {
+                        return Err(FormatError::OutOfRange {
+                            field: "lossy JPEG storage",
+                            value: format!("quality {quality}"),
+                            allowed: "quality 1..=100 and 8-bit samples".into(),
+                        });
+                    }
+                    let colour = if spp == 3 {
+                        jpeg_encoder::ColorType::Rgb
+                    } else {
+                        jpeg_encoder::ColorType::Luma
+                    };
+                    let bytes: Vec<u8> = cell.iter().map(|v| *v as u8).collect();
+                    let mut out = Vec::new();
+                    let mut encoder = jpeg_encoder::Encoder::new(&mut out, quality);
+                    // Chroma at full resolution: a raw is worth it, and upsampling is where
+                    // JPEG decoders differ most.
+                    encoder.set_sampling_factor(jpeg_encoder::SamplingFactor::R_4_4_4);
+                    encoder
+                        .encode(&bytes, cell_w as u16, cell_h as u16, colour)
+                        .map_err(|e| FormatError::JpegEncode(e.to_string()))?;
+                    Ok(out)
                 }
             })
             .collect()
@@ -389,9 +428,17 @@ impl Dng {
                         (x + dx).min(image.width - 1),
                         (y + dy).min(image.height - 1),
                     );
-                    let c = image.pattern.colour_at(sx, sy).index();
-                    rgb[c] += u32::from(image.samples[sy * image.width + sx]);
-                    count[c] += 1;
+                    let i = sy * image.width + sx;
+                    if image.is_linear() {
+                        for c in 0..3 {
+                            rgb[c] += u32::from(image.samples[3 * i + c]);
+                            count[c] += 1;
+                        }
+                    } else {
+                        let c = image.pattern.colour_at(sx, sy).index();
+                        rgb[c] += u32::from(image.samples[i]);
+                        count[c] += 1;
+                    }
                 }
                 for c in 0..3 {
                     preview.push(((rgb[c] / count[c].max(1)) >> shift).min(255) as u8);
@@ -435,7 +482,10 @@ impl Dng {
         let (bits, compression) = match options.storage {
             Storage::Uncompressed { bits } => (u16::from(bits), 1),
             Storage::LosslessJpeg { .. } => (u16::from(image.bits), 7),
+            Storage::LossyJpeg { .. } => (8, 34892),
         };
+        let linear = image.is_linear();
+        let spp = u16::from(image.samples_per_pixel);
         let model = if self.camera_model.is_empty() {
             "camsim"
         } else {
@@ -447,21 +497,36 @@ impl Dng {
             long(NEW_SUBFILE_TYPE, &[0]),
             long(IMAGE_WIDTH, &[w]),
             long(IMAGE_LENGTH, &[h]),
-            short(BITS_PER_SAMPLE, &[bits]),
+            short(BITS_PER_SAMPLE, &vec![bits; usize::from(spp)]),
             short(COMPRESSION, &[compression]),
-            short(PHOTOMETRIC, &[CFA_PHOTOMETRIC as u16]),
+            short(
+                PHOTOMETRIC,
+                &[if linear {
+                    LINEAR_RAW_PHOTOMETRIC
+                } else {
+                    CFA_PHOTOMETRIC
+                } as u16],
+            ),
             ascii(MAKE, "camsim"),
             ascii(MODEL, model),
             short(ORIENTATION, &[self.framing.orientation.to_tiff()]),
-            short(SAMPLES_PER_PIXEL, &[1]),
+            short(SAMPLES_PER_PIXEL, &[spp]),
             short(PLANAR_CONFIGURATION, &[1]),
             ascii(SOFTWARE, concat!("camsim ", env!("CARGO_PKG_VERSION"))),
-            short(CFA_REPEAT_PATTERN_DIM, &[2, 2]),
-            bytes(CFA_PATTERN, &cfa_codes(image.pattern)),
             bytes(DNG_VERSION, &[1, 4, 0, 0]),
-            bytes(DNG_BACKWARD_VERSION, &[1, 1, 0, 0]),
+            // Lossy JPEG needs a 1.4 reader; the rest reads with 1.1.
+            bytes(
+                DNG_BACKWARD_VERSION,
+                &[1, if compression == 34892 { 4 } else { 1 }, 0, 0],
+            ),
             ascii(UNIQUE_CAMERA_MODEL, model),
         ];
+        if !linear {
+            entries.extend([
+                short(CFA_REPEAT_PATTERN_DIM, &[2, 2]),
+                bytes(CFA_PATTERN, &cfa_codes(image.pattern)),
+            ]);
+        }
         match options.tile {
             Some((tw, th)) => entries.extend([
                 long(TILE_WIDTH, &[tw]),
@@ -476,13 +541,19 @@ impl Dng {
             ]),
         }
         let black = image.black_level;
-        if black.iter().all(|b| *b == black[0]) {
-            entries.push(short(BLACK_LEVEL, &[black[0]]));
+        if linear {
+            // One repeat cell, a value per sample.
+            entries.push(short(BLACK_LEVEL, &black[..3]));
+            entries.push(short(WHITE_LEVEL, &[image.white_level; 3]));
         } else {
-            entries.push(short(BLACK_LEVEL_REPEAT_DIM, &[2, 2]));
-            entries.push(short(BLACK_LEVEL, &black));
+            if black.iter().all(|b| *b == black[0]) {
+                entries.push(short(BLACK_LEVEL, &[black[0]]));
+            } else {
+                entries.push(short(BLACK_LEVEL_REPEAT_DIM, &[2, 2]));
+                entries.push(short(BLACK_LEVEL, &black));
+            }
+            entries.push(short(WHITE_LEVEL, &[image.white_level]));
         }
-        entries.push(short(WHITE_LEVEL, &[image.white_level]));
         if let Some(crop) = self.framing.default_crop {
             entries.push(long(
                 DEFAULT_CROP_ORIGIN,
