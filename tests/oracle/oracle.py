@@ -127,6 +127,22 @@ def op_xy_to_cct_robertson(args, arrays):
     return {}, [colour.temperature.uv_to_CCT_Robertson1968(uv)[..., 0]]
 
 
+def neutral_to_xy_bounded(dng, neutral, common, epsilon=1e-14, passes=5000):
+    """colour-hdri's `camera_neutral_to_xy` loop, step for step (its matrix, its stopping rule),
+    with a bound on the passes: colour-hdri's own loop has none, and for a neutral far from the
+    locus the plain iteration alternates forever. NaN where it did not converge."""
+    from colour.models import XYZ_to_xy
+
+    xy = np.array((1 / 3, 1 / 3))
+    for _ in range(passes):
+        xy_p = np.copy(xy)
+        m = dng.matrix_XYZ_to_camera_space(xy, *common)
+        xy = XYZ_to_xy(np.linalg.inv(m) @ neutral)
+        if np.abs(np.sum(xy_p - xy)) <= epsilon:
+            return xy
+    return np.array((np.nan, np.nan))
+
+
 def op_dng_colour(args, arrays):
     """The DNG specification's "Mapping Camera Color Space to CIE XYZ Space", by colour-hdri.
     args: cct1 < cct2 (kelvin). arrays: ColorMatrix1, ColorMatrix2, CameraCalibration1,
@@ -139,7 +155,7 @@ def op_dng_colour(args, arrays):
     cm1, cm2, cc1, cc2, ab, fm1, fm2, neutrals, whites = arrays
     t1, t2 = args["cct1"], args["cct2"]
     common = (t1, t2, cm1, cm2, cc1, cc2, ab)
-    xys = [dng.camera_neutral_to_xy(n, *common, epsilon=1e-14) for n in neutrals]
+    xys = [neutral_to_xy_bounded(dng, n, common) for n in neutrals]
     back = [dng.xy_to_camera_neutral(xy, *common) for xy in whites]
     to_xyz = [dng.matrix_camera_space_to_XYZ(xy, *common, fm1, fm2) for xy in whites]
     return {}, [np.array(xys), np.array(back), np.array(to_xyz)]

@@ -220,7 +220,13 @@ proptest! {
             Array::f64_shaped(whites.iter().flatten().copied().collect(), &[whites.len(), 2]),
         ]) else { return Ok(()) };
         let ours_xy: Vec<f64> = neutrals.iter().flat_map(|n| cal.neutral_to_xy(*n).unwrap()).collect();
-        prop_assert_eq!(first_mismatch(&ours_xy, &theirs[0].to_f64(), 1e-9, 0.0), None, "neutral -> xy");
+        prop_assert!(ours_xy.iter().all(|v| v.is_finite()), "{:?}", ours_xy);
+        // The oracle gives NaN where colour-hdri's undamped iteration alternates without end
+        // (a neutral far from the locus); ours converges there, and is compared where it does.
+        let theirs_xy = theirs[0].to_f64();
+        let converged: Vec<usize> = (0..theirs_xy.len()).filter(|i| theirs_xy[*i].is_finite()).collect();
+        let pick = |v: &[f64]| -> Vec<f64> { converged.iter().map(|i| v[*i]).collect() };
+        prop_assert_eq!(first_mismatch(&pick(&ours_xy), &pick(&theirs_xy), 1e-9, 0.0), None, "neutral -> xy");
         let ours_neutral: Vec<f64> = whites.iter().flat_map(|xy| cal.xy_to_neutral(*xy).unwrap()).collect();
         prop_assert_eq!(first_mismatch(&ours_neutral, &theirs[1].to_f64(), 1e-9, 1e-9), None, "xy -> neutral");
         let ours_m: Vec<f64> = whites.iter().flat_map(|xy| flat(&cal.camera_to_xyz_d50(*xy).unwrap())).collect();
