@@ -279,15 +279,21 @@ pub fn develop(
         return Err(Error::SampleRange { sample: *v, bits });
     }
     let black = options.black_level.clone().unwrap_or(vec![0]);
-    if linear && !matches!(black.len(), 1 | 3) {
+    // One per 2x2 CFA position, or per channel of a linear frame.
+    let per_position = if linear { 3 } else { 4 };
+    if black.len() != 1 && black.len() != per_position {
         return Err(Error::Option {
             option: "--black-level",
             value: format!("{black:?}"),
-            allowed: "one value, or one per channel R, G, B for a linear DNG".into(),
+            allowed: if linear {
+                "one value, or three (R, G, B) for a linear DNG".into()
+            } else {
+                "one value, or four (one per 2x2 CFA position)".into()
+            },
         });
     }
     let black: [u16; 4] =
-        std::array::from_fn(|i| black[if black.len() == 1 { 0 } else { i % black.len() }]);
+        std::array::from_fn(|i| black.get(i).or(black.last()).copied().unwrap_or(0));
     let white = options.white_level.unwrap_or(max);
     let (w, h) = (image.width, image.height);
     let frame_error =

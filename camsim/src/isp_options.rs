@@ -6,7 +6,7 @@
 //! ```toml
 //! pattern = "GRBG"
 //! bits = 12
-//! black-level = 64                 # or four values, one per 2x2 CFA position, row by row
+//! black-level = 64                 # or four, one per 2x2 CFA position row by row (three, R G B, for a linear DNG)
 //! white-level = 4095
 //! gain = 1.5
 //! wb = [2.1, 1.0, 1.6]             # or: awb = "grey-world"
@@ -158,7 +158,7 @@ pub struct IspOptions {
     pub pattern: Option<CfaPattern>,
     /// Bits of raw data per sample.
     pub bits: Option<u8>,
-    /// Black level, one value or four.
+    /// Black level: one value, four (per 2x2 CFA position) or three (per channel, linear).
     pub black_level: Option<Vec<u16>>,
     /// White level.
     pub white_level: Option<u16>,
@@ -327,7 +327,7 @@ pub fn numbers(text: &str, what: &str, counts: &[usize]) -> Result<Vec<f64>> {
 
 /// Black levels as integers in `0..=65535`.
 pub fn black_levels(values: Vec<f64>, what: &str) -> Result<Vec<u16>> {
-    let values = count_of(values, what, &[1, 4])?;
+    let values = count_of(values, what, &[1, 3, 4])?;
     values
         .iter()
         .map(|v| {

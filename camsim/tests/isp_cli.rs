@@ -832,6 +832,23 @@ fn isp_develops_linear_raw_dngs_uncompressed_and_lossy() {
             !ok && stderr.contains("linear (already demosaiced)"),
             "{stderr}"
         );
+        // A black level per channel is taken; one per CFA position is not.
+        let out = dir.join("black.png");
+        let black = |values: &str| {
+            camsim(&[
+                "isp",
+                "--input",
+                input.to_str().unwrap(),
+                "--output",
+                out.to_str().unwrap(),
+                "--black-level",
+                values,
+            ])
+        };
+        let (ok, _, stderr) = black("0,0,0");
+        assert!(ok, "{stderr}");
+        let (ok, _, stderr) = black("0,0,0,0");
+        assert!(!ok && stderr.contains("three (R, G, B)"), "{stderr}");
     }
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -135,6 +135,31 @@ fn check_plane(
     Ok(())
 }
 
+/// Checks a frame's levels: bit depth 8..=16, each white level within it, and each black level
+/// below the white level beside it.
+fn check_levels(bit_depth: u8, black: &[u16], white: &[u16]) -> Result<(), IspError> {
+    if !(8..=16).contains(&bit_depth) {
+        return Err(IspError::InvalidParameter {
+            name: "bit_depth",
+            allowed: "8..=16",
+        });
+    }
+    let max = ((1u32 << bit_depth) - 1) as u16;
+    if white.iter().any(|w| *w == 0 || *w > max) {
+        return Err(IspError::InvalidParameter {
+            name: "white_level",
+            allowed: "1..=2^bit_depth - 1",
+        });
+    }
+    if black.iter().zip(white).any(|(b, w)| b >= w) {
+        return Err(IspError::InvalidParameter {
+            name: "black_level",
+            allowed: "< white_level",
+        });
+    }
+    Ok(())
+}
+
 /// Checks that `len` samples hold an interleaved RGB image of `width` x `height` at `stride`.
 fn check_rgb_plane(len: usize, width: usize, height: usize, stride: usize) -> Result<(), IspError> {
     let row_len = width.checked_mul(3).ok_or(IspError::InvalidParameter {
@@ -257,25 +282,7 @@ impl<'a> RawFrame<'a> {
         black_level: [u16; 4],
         white_level: u16,
     ) -> Result<Self, IspError> {
-        if !(8..=16).contains(&bit_depth) {
-            return Err(IspError::InvalidParameter {
-                name: "bit_depth",
-                allowed: "8..=16",
-            });
-        }
-        let max = ((1u32 << bit_depth) - 1) as u16;
-        if white_level == 0 || white_level > max {
-            return Err(IspError::InvalidParameter {
-                name: "white_level",
-                allowed: "1..=2^bit_depth - 1",
-            });
-        }
-        if black_level.iter().any(|b| *b >= white_level) {
-            return Err(IspError::InvalidParameter {
-                name: "black_level",
-                allowed: "< white_level",
-            });
-        }
+        check_levels(bit_depth, &black_level, &[white_level; 4])?;
         let mosaic = MosaicView::new(data, width, height, stride, pattern)?;
         Ok(Self {
             mosaic,
@@ -346,25 +353,7 @@ impl<'a> LinearFrame<'a> {
         black_level: [u16; 3],
         white_level: [u16; 3],
     ) -> Result<Self, IspError> {
-        if !(8..=16).contains(&bit_depth) {
-            return Err(IspError::InvalidParameter {
-                name: "bit_depth",
-                allowed: "8..=16",
-            });
-        }
-        let max = ((1u32 << bit_depth) - 1) as u16;
-        if white_level.iter().any(|w| *w == 0 || *w > max) {
-            return Err(IspError::InvalidParameter {
-                name: "white_level",
-                allowed: "1..=2^bit_depth - 1",
-            });
-        }
-        if black_level.iter().zip(&white_level).any(|(b, w)| b >= w) {
-            return Err(IspError::InvalidParameter {
-                name: "black_level",
-                allowed: "< the channel's white_level",
-            });
-        }
+        check_levels(bit_depth, &black_level, &white_level)?;
         check_rgb_plane(data.len(), width, height, stride)?;
         Ok(Self {
             data,

@@ -418,6 +418,27 @@ impl<'a> FloatPipeline<'a> {
     }
 }
 
+impl FloatPipeline<'_> {
+    /// Normalisation, shading, ISO gain and white balance of one sample `d` above black, out
+    /// of `range` (white minus black), with the shading gain and white-balance gain at it.
+    #[inline]
+    fn pointwise(&self, d: u16, range: f32, shading: Option<f32>, wb: f32) -> f32 {
+        let c = &self.config;
+        let mut v = d as f32 / range;
+        if let Some(s) = shading {
+            v *= s;
+        }
+        v = v.clamp(0.0, 1.0);
+        if c.gain != 1.0 {
+            v = (c.gain * v).min(1.0);
+        }
+        if wb != 1.0 {
+            v = (wb * v).min(1.0);
+        }
+        v
+    }
+}
+
 impl Path for FloatPipeline<'_> {
     type P = f32;
 
@@ -446,20 +467,9 @@ impl Path for FloatPipeline<'_> {
         for (i, (o, &r)) in out.iter_mut().zip(dpc).enumerate() {
             let x = x0 + i;
             let black = raw.black_at(x, y);
-            let d = r.saturating_sub(black) as f32;
-            let mut v = d / (white - black as f32);
-            if let Some(lsc) = &c.lsc {
-                v *= lsc.gain_f32(x, y, w, h);
-            }
-            v = v.clamp(0.0, 1.0);
-            if c.gain != 1.0 {
-                v = (c.gain * v).min(1.0);
-            }
-            let g = c.wb_gains[pattern.colour_at(x, y).index()];
-            if g != 1.0 {
-                v = (g * v).min(1.0);
-            }
-            *o = v;
+            let shading = c.lsc.as_ref().map(|lsc| lsc.gain_f32(x, y, w, h));
+            let wb = c.wb_gains[pattern.colour_at(x, y).index()];
+            *o = self.pointwise(r.saturating_sub(black), white - black as f32, shading, wb);
         }
     }
 
@@ -474,20 +484,9 @@ impl Path for FloatPipeline<'_> {
         {
             let shading = c.lsc.as_ref().map(|lsc| lsc.gain_f32(x, y, w, h));
             for ch in 0..3 {
-                let d = raw[ch].saturating_sub(black[ch]) as f32;
-                let mut v = d / (white[ch] - black[ch]) as f32;
-                if let Some(s) = shading {
-                    v *= s;
-                }
-                v = v.clamp(0.0, 1.0);
-                if c.gain != 1.0 {
-                    v = (c.gain * v).min(1.0);
-                }
-                let g = c.wb_gains[ch];
-                if g != 1.0 {
-                    v = (g * v).min(1.0);
-                }
-                px[ch] = v;
+                let range = (white[ch] - black[ch]) as f32;
+                let d = raw[ch].saturating_sub(black[ch]);
+                px[ch] = self.pointwise(d, range, shading, c.wb_gains[ch]);
             }
         }
     }
@@ -619,6 +618,32 @@ impl<'a> FixedPipeline<'a> {
     }
 }
 
+/// The Q16 reciprocal of a black-to-white `range`, so `65535 * d / range` is one multiply.
+fn recip_q16(range: u16) -> u64 {
+    let range = u64::from(range);
+    ((65535u64 << 16) + range / 2) / range
+}
+
+impl FixedPipeline<'_> {
+    /// Normalisation (by `recip`, [`recip_q16`]), shading (Q4.16), ISO gain and the white
+    /// balance of `colour` on one sample `d` above black, in 16-bit linear units.
+    #[inline]
+    fn pointwise(&self, d: u16, recip: u64, shading: Option<u64>, colour: usize) -> u16 {
+        let mut t = u64::from(d) * recip;
+        if let Some(s) = shading {
+            t = (t >> 16) * s;
+        }
+        let mut v = ((t + (1 << 15)) >> 16).min(65535);
+        if let Some(g) = self.gain_q16 {
+            v = ((v * g + (1 << 15)) >> GAIN_FRAC_BITS).min(65535);
+        }
+        if let Some(wb) = &self.wb_q16 {
+            v = ((v * wb[colour] + (1 << 15)) >> GAIN_FRAC_BITS).min(65535);
+        }
+        v as u16
+    }
+}
+
 impl Path for FixedPipeline<'_> {
     type P = u16;
 
@@ -642,11 +667,8 @@ impl Path for FixedPipeline<'_> {
         let mosaic = raw.mosaic();
         let (w, h) = (mosaic.width(), mosaic.height());
         let pattern = mosaic.pattern();
-        // Q16 reciprocal of each CFA position's range, so 65535 * d / range is one multiply.
-        let recip: [u64; 4] = core::array::from_fn(|p| {
-            let range = (raw.white_level() - raw.black_level()[p]) as u64;
-            ((65535u64 << 16) + range / 2) / range
-        });
+        let recip: [u64; 4] =
+            core::array::from_fn(|p| recip_q16(raw.white_level() - raw.black_level()[p]));
         let mut nodes = [0u32; 2 * MAX_GRID_SIDE];
         if let Some(lsc) = &self.lsc {
             lsc.row_nodes_q16(y, h, &mut nodes);
@@ -654,30 +676,17 @@ impl Path for FixedPipeline<'_> {
         for (i, (o, &r)) in out.iter_mut().zip(dpc).enumerate() {
             let x = x0 + i;
             let position = (y & 1) * 2 + (x & 1);
-            let d = r.saturating_sub(raw.black_level()[position]) as u64;
-            let mut t = d * recip[position];
-            if let Some(lsc) = &self.lsc {
-                t = (t >> 16) * lsc.gain_q16(&nodes, x, w);
-            }
-            let mut v = ((t + (1 << 15)) >> 16).min(65535);
-            if let Some(g) = self.gain_q16 {
-                v = ((v * g + (1 << 15)) >> GAIN_FRAC_BITS).min(65535);
-            }
-            if let Some(wb) = &self.wb_q16 {
-                let g = wb[pattern.colour_at(x, y).index()];
-                v = ((v * g + (1 << 15)) >> GAIN_FRAC_BITS).min(65535);
-            }
-            *o = v as u16;
+            let d = r.saturating_sub(raw.black_level()[position]);
+            let shading = self.lsc.as_ref().map(|lsc| lsc.gain_q16(&nodes, x, w));
+            let colour = pattern.colour_at(x, y).index();
+            *o = self.pointwise(d, recip[position], shading, colour);
         }
     }
 
     fn linear_span(&self, frame: &LinearFrame<'_>, y: usize, out: &mut [u16]) {
         let (w, h) = (frame.width(), frame.height());
         let (black, white) = (frame.black_level(), frame.white_level());
-        let recip: [u64; 3] = core::array::from_fn(|c| {
-            let range = (white[c] - black[c]) as u64;
-            ((65535u64 << 16) + range / 2) / range
-        });
+        let recip: [u64; 3] = core::array::from_fn(|c| recip_q16(white[c] - black[c]));
         let mut nodes = [0u32; 2 * MAX_GRID_SIDE];
         if let Some(lsc) = &self.lsc {
             lsc.row_nodes_q16(y, h, &mut nodes);
@@ -689,19 +698,7 @@ impl Path for FixedPipeline<'_> {
         {
             let shading = self.lsc.as_ref().map(|lsc| lsc.gain_q16(&nodes, x, w));
             for c in 0..3 {
-                let d = raw[c].saturating_sub(black[c]) as u64;
-                let mut t = d * recip[c];
-                if let Some(s) = shading {
-                    t = (t >> 16) * s;
-                }
-                let mut v = ((t + (1 << 15)) >> 16).min(65535);
-                if let Some(g) = self.gain_q16 {
-                    v = ((v * g + (1 << 15)) >> GAIN_FRAC_BITS).min(65535);
-                }
-                if let Some(wb) = &self.wb_q16 {
-                    v = ((v * wb[c] + (1 << 15)) >> GAIN_FRAC_BITS).min(65535);
-                }
-                px[c] = v as u16;
+                px[c] = self.pointwise(raw[c].saturating_sub(black[c]), recip[c], shading, c);
             }
         }
     }

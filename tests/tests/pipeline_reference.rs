@@ -17,23 +17,23 @@ use proptest::prelude::*;
 /// Runs `f` in bands of the given heights through `run_band(rows, output view)`, which holds
 /// the pipeline and its scratch; the 8-bit output of the whole frame.
 fn run_in_bands(
-    f: &Frame,
+    (w, h): (usize, usize),
     bands: &[usize],
     mut run_band: impl FnMut(std::ops::Range<usize>, &mut RgbViewMut<'_, u8>),
 ) -> Vec<u8> {
-    let mut out = vec![0u8; f.w * f.h * 3];
+    let mut out = vec![0u8; w * h * 3];
     let mut y = 0;
     for &band in bands {
-        if y == f.h {
+        if y == h {
             break;
         }
-        let rows = y..(y + band).min(f.h);
-        let chunk = &mut out[3 * f.w * rows.start..3 * f.w * rows.end];
-        let mut view = RgbViewMut::new(chunk, f.w, rows.len(), 3 * f.w).unwrap();
+        let rows = y..(y + band).min(h);
+        let chunk = &mut out[3 * w * rows.start..3 * w * rows.end];
+        let mut view = RgbViewMut::new(chunk, w, rows.len(), 3 * w).unwrap();
         run_band(rows.clone(), &mut view);
         y = rows.end;
     }
-    assert_eq!(y, f.h);
+    assert_eq!(y, h);
     out
 }
 
@@ -42,7 +42,7 @@ fn run_float(f: &Frame, s: &Settings, bands: &[usize]) -> Vec<u8> {
     let pipeline = FloatPipeline::new(&config).unwrap();
     // NaN in the scratch: a row read before it is written would show.
     let mut scratch = vec![f32::NAN; pipeline.scratch_len(f.w, f.h).unwrap()];
-    run_in_bands(f, bands, |rows, view| {
+    run_in_bands((f.w, f.h), bands, |rows, view| {
         pipeline.run(&raw, rows, &mut scratch, view).unwrap()
     })
 }
@@ -51,7 +51,7 @@ fn run_fixed(f: &Frame, s: &Settings, bands: &[usize]) -> Vec<u8> {
     let (raw, config) = (f.raw(), s.config());
     let pipeline = FixedPipeline::new(&config, 8).unwrap();
     let mut scratch = vec![0xA5A5u16; pipeline.scratch_len(f.w, f.h).unwrap()];
-    run_in_bands(f, bands, |rows, view| {
+    run_in_bands((f.w, f.h), bands, |rows, view| {
         pipeline.run(&raw, rows, &mut scratch, view).unwrap()
     })
 }
@@ -60,42 +60,22 @@ fn run_linear_float(f: &LinearRef, s: &Settings, bands: &[usize]) -> Vec<u8> {
     let (frame, config) = (f.frame(), s.config());
     let pipeline = FloatPipeline::new(&config).unwrap();
     let mut scratch = vec![f32::NAN; pipeline.scratch_len(f.w, f.h).unwrap()];
-    let mut out = vec![0u8; f.w * f.h * 3];
-    let mut y = 0;
-    for &band in bands.iter().chain(std::iter::repeat(&f.h)) {
-        if y == f.h {
-            break;
-        }
-        let rows = y..(y + band).min(f.h);
-        let chunk = &mut out[3 * f.w * rows.start..3 * f.w * rows.end];
-        let mut view = RgbViewMut::new(chunk, f.w, rows.len(), 3 * f.w).unwrap();
+    run_in_bands((f.w, f.h), bands, |rows, view| {
         pipeline
-            .run_linear(&frame, rows.clone(), &mut scratch, &mut view)
-            .unwrap();
-        y = rows.end;
-    }
-    out
+            .run_linear(&frame, rows, &mut scratch, view)
+            .unwrap()
+    })
 }
 
 fn run_linear_fixed(f: &LinearRef, s: &Settings, bands: &[usize]) -> Vec<u8> {
     let (frame, config) = (f.frame(), s.config());
     let pipeline = FixedPipeline::new(&config, 8).unwrap();
     let mut scratch = vec![0xA5A5u16; pipeline.scratch_len(f.w, f.h).unwrap()];
-    let mut out = vec![0u8; f.w * f.h * 3];
-    let mut y = 0;
-    for &band in bands.iter().chain(std::iter::repeat(&f.h)) {
-        if y == f.h {
-            break;
-        }
-        let rows = y..(y + band).min(f.h);
-        let chunk = &mut out[3 * f.w * rows.start..3 * f.w * rows.end];
-        let mut view = RgbViewMut::new(chunk, f.w, rows.len(), 3 * f.w).unwrap();
+    run_in_bands((f.w, f.h), bands, |rows, view| {
         pipeline
-            .run_linear(&frame, rows.clone(), &mut scratch, &mut view)
-            .unwrap();
-        y = rows.end;
-    }
-    out
+            .run_linear(&frame, rows, &mut scratch, view)
+            .unwrap()
+    })
 }
 
 /// A linear frame of the same sizes and depths as [`frame_strategy`]'s, with settings that

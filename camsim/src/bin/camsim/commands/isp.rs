@@ -38,8 +38,8 @@ pub struct IspArgs {
     /// Bits of raw data in each sample, 8..=16 [default: the file's depth].
     #[arg(long)]
     pub bits: Option<u8>,
-    /// Black level: one value, or four (one per 2x2 CFA position, row by row), comma-separated
-    /// [default: 0].
+    /// Black level: one value, or four (one per 2x2 CFA position, row by row), or for a linear
+    /// DNG three (R, G, B), comma-separated [default: 0].
     #[arg(long)]
     pub black_level: Option<String>,
     /// White level [default: 2^bits - 1].
@@ -119,7 +119,7 @@ impl IspArgs {
         Ok(IspOptions {
             pattern: self.pattern.map(Into::into),
             bits: self.bits,
-            black_level: list(&self.black_level, "--black-level", &[1, 4])?
+            black_level: list(&self.black_level, "--black-level", &[1, 3, 4])?
                 .map(|v| options::black_levels(v, "--black-level"))
                 .transpose()?,
             white_level: self.white_level,
