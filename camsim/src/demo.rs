@@ -490,8 +490,13 @@ pub fn run(
         ccm,
         ..IspConfig::default()
     };
-    let (float_report, float_rgb) = develop::execute(raw_back.into(), &isp_config, false, 8)?;
-    let (fixed_report, fixed_rgb) = develop::execute(raw_back.into(), &isp_config, true, 8)?;
+    // The demo's report lists each stage's time: ablation on the demo's small frame.
+    let run = develop::RunOptions {
+        stage_times: true,
+        ..develop::RunOptions::default()
+    };
+    let (float_report, float_rgb) = develop::execute(raw_back.into(), &isp_config, false, 8, run)?;
+    let (fixed_report, fixed_rgb) = develop::execute(raw_back.into(), &isp_config, true, 8, run)?;
     let to8 = |img: &Image| Image {
         bits: 8,
         ..img.clone()

@@ -45,8 +45,10 @@ pub struct IspReport {
     pub fixed: bool,
     /// Milliseconds per stage (ablation), in pipeline order.
     pub stage_ms: Vec<(&'static str, f64)>,
-    /// Milliseconds of the whole pipeline.
+    /// Milliseconds of the whole pipeline (one run).
     pub total_ms: f64,
+    /// Threads the pipeline ran on.
+    pub threads: usize,
     /// How the output was cropped and turned, when the file asked for either.
     pub framing: Option<String>,
     /// The file's BaselineExposure in EV, when applied.
@@ -85,11 +87,25 @@ impl IspReport {
         if let Some(framing) = &self.framing {
             out += &format!("framing: {framing}\n");
         }
-        out += "time per stage (ms, by ablation):\n";
+        let threads = match self.threads {
+            1 => "1 thread".to_string(),
+            n => format!("{n} threads"),
+        };
+        if self.stage_ms.is_empty() {
+            out += &format!(
+                "pipeline: {:.2} ms on {threads} (--stage-times for each stage's time)\n",
+                self.total_ms
+            );
+            return out;
+        }
+        out += &format!("time per stage (ms, by ablation, best of three, {threads}):\n");
         for (name, ms) in &self.stage_ms {
             out += &format!("  {name:<28} {ms:>9.2}\n");
         }
-        out += &format!("  {:<28} {:>9.2}\n", "pipeline total", self.total_ms);
+        out += &format!(
+            "  {:<28} {:>9.2}\n",
+            "pipeline total (one run)", self.total_ms
+        );
         out
     }
 }
@@ -257,7 +273,46 @@ pub fn develop(
     input: &RawInput,
     options: &IspOptions,
     calibration: Option<Calibration>,
+    run: RunOptions,
 ) -> Result<(IspReport, Image), Error> {
+    with_prepared(input, options, calibration, |p| {
+        let (mut report, rgb) = execute(p.input, &p.config, p.fixed, p.out_bits, run)?;
+        report.awb = p.awb;
+        report.baseline_exposure = p.baseline_ev;
+        let (rgb, framing) = frame(rgb, &input.framing, p.crop)?;
+        report.framing = framing;
+        Ok((report, rgb))
+    })
+}
+
+/// What [`develop`] resolved from the options, the file and the defaults, ready to run.
+#[derive(Debug, Clone, Copy)]
+pub struct Prepared<'a> {
+    /// The frame.
+    pub input: Input<'a>,
+    /// The pipeline's configuration.
+    pub config: IspConfig<'a>,
+    /// Whether the fixed-point path runs.
+    pub fixed: bool,
+    /// Output depth, 8 or 16.
+    pub out_bits: u8,
+    /// The AWB estimate, if AWB ran.
+    pub awb: Option<AwbEstimate>,
+    /// The file's BaselineExposure in EV, when applied.
+    pub baseline_ev: Option<f64>,
+    /// How to frame the output.
+    pub crop: CropChoice,
+}
+
+/// Resolves `options` (each unset option from the file's defaults, then the built-in
+/// default) and `calibration` for `input` as [`develop`] does, runs AWB if asked, and hands
+/// the result to `then` (the configuration borrows what this function builds).
+pub fn with_prepared<R>(
+    input: &RawInput,
+    options: &IspOptions,
+    calibration: Option<Calibration>,
+    then: impl FnOnce(Prepared<'_>) -> Result<R, Error>,
+) -> Result<R, Error> {
     let options = options.clone().or(input.defaults.clone());
     let calibration = calibration.or(input.calibration);
     let image = &input.raw;
@@ -394,12 +449,15 @@ pub fn develop(
     config.validate()?;
     let fixed = options.fixed.unwrap_or(false);
     let out_bits = options.out_bits.unwrap_or(8);
-    let (mut report, rgb) = execute(raw, &config, fixed, out_bits)?;
-    report.awb = awb;
-    report.baseline_exposure = baseline_ev;
-    let (rgb, framing) = frame(rgb, &input.framing, options.crop.unwrap_or_default())?;
-    report.framing = framing;
-    Ok((report, rgb))
+    then(Prepared {
+        input: raw,
+        config,
+        fixed,
+        out_bits,
+        awb,
+        baseline_ev,
+        crop: options.crop.unwrap_or_default(),
+    })
 }
 
 /// Crops the developed image as `choice` and the file say, then turns it upright; with what
@@ -432,29 +490,52 @@ fn frame(
     Ok((rgb, (!done.is_empty()).then(|| done.join("; "))))
 }
 
+/// How [`execute`] runs the pipeline.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RunOptions {
+    /// Bands run in parallel, one thread each (at least 1; bands give bit-identical output,
+    /// so the image does not depend on it).
+    pub threads: usize,
+    /// Also time each stage by ablation: one more run per stage that is on.
+    pub stage_times: bool,
+}
+
+impl Default for RunOptions {
+    /// Every core, no stage times: one pass.
+    fn default() -> Self {
+        Self {
+            threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            stage_times: false,
+        }
+    }
+}
+
 /// Runs the pipeline on `raw` (a mosaic, or a linear frame that skips demosaicing) with
-/// `config` (float or fixed path, 8- or 16-bit output) and times each stage by ablation;
-/// returns the report (with no AWB estimate) and the image.
+/// `config` (float or fixed path, 8- or 16-bit output) once, on `run.threads` threads, and with
+/// `run.stage_times` times each stage by ablation; returns the report (with no AWB estimate)
+/// and the image.
 pub fn execute(
     raw: Input<'_>,
     config: &IspConfig<'_>,
     fixed: bool,
     out_bits: u8,
+    run: RunOptions,
 ) -> Result<(IspReport, Image), IspError> {
     let linear = matches!(raw, Input::Linear(_));
     let config = *config;
     let (demosaic, distortion, wb_gains) = (config.demosaic, config.distortion, config.wb_gains);
     let (w, h) = (raw.width(), raw.height());
+    let threads = run.threads.max(1);
     let mut out = vec![0u16; w * h * 3];
     let total_ms = if out_bits == 8 {
         let mut out8 = vec![0u8; w * h * 3];
-        let ms = time_run(&raw, &config, fixed, &mut out8)?;
+        let ms = Runner::new(&raw, &config, fixed, 8, threads)?.best_ms(&mut out8, 1)?;
         for (o, v) in out.iter_mut().zip(&out8) {
             *o = *v as u16;
         }
         ms
     } else {
-        time_run(&raw, &config, fixed, &mut out)?
+        Runner::new(&raw, &config, fixed, 16, threads)?.best_ms(&mut out, 1)?
     };
 
     // Cumulative configurations, one stage more each, in pipeline order; the base is what
@@ -504,12 +585,14 @@ pub fn execute(
     stages.extend(steps[1..].iter().filter(|s| s.2).map(|s| s.0));
     stages.push("sRGB encode");
     let mut stage_ms = Vec::new();
-    let mut previous = 0.0;
-    let mut scratch_out = vec![0u8; w * h * 3];
-    for (name, _, _, c) in &steps {
-        let ms = time_run(&raw, c, fixed, &mut scratch_out)?;
-        stage_ms.push((*name, (ms - previous).max(0.0)));
-        previous = ms;
+    if run.stage_times {
+        let mut previous = 0.0;
+        let mut scratch_out = vec![0u8; w * h * 3];
+        for (name, _, _, c) in &steps {
+            let ms = Runner::new(&raw, c, fixed, 8, threads)?.best_ms(&mut scratch_out, 3)?;
+            stage_ms.push((*name, (ms - previous).max(0.0)));
+            previous = ms;
+        }
     }
     let report = IspReport {
         stages,
@@ -521,6 +604,7 @@ pub fn execute(
         fixed,
         stage_ms,
         total_ms,
+        threads,
         framing: None,
         baseline_exposure: None,
     };
@@ -534,42 +618,168 @@ pub fn execute(
     Ok((report, rgb))
 }
 
-/// Runs the whole frame, best of three, in milliseconds.
-fn time_run<O: OutputSample + Default>(
-    raw: &Input<'_>,
-    config: &IspConfig<'_>,
-    fixed: bool,
-    out: &mut [O],
-) -> Result<f64, IspError> {
-    // One short-lived value on the stack: the variants' sizes do not matter.
-    #[allow(clippy::large_enum_variant)]
-    enum Runner<'a> {
-        Float(FloatPipeline<'a>, Vec<f32>),
-        // Boxed: the fixed pipeline carries 32 KiB of tables.
-        Fixed(Box<FixedPipeline<'a>>, Vec<u16>),
+/// A built pipeline (float or fixed) and the scratch of each band, ready to run a frame
+/// repeatedly: building (tables, scratch) is outside the time measured.
+pub struct Runner<'a> {
+    input: Input<'a>,
+    path: PipelinePath<'a>,
+    /// Output rows of each band, in order.
+    bands: Vec<std::ops::Range<usize>>,
+}
+
+// One value per run: the variants' sizes do not matter.
+#[allow(clippy::large_enum_variant)]
+enum PipelinePath<'a> {
+    Float(FloatPipeline<'a>, Vec<Vec<f32>>),
+    // Boxed: the fixed pipeline carries its tables.
+    Fixed(Box<FixedPipeline<'a>>, Vec<Vec<u16>>),
+}
+
+impl<'a> Runner<'a> {
+    /// The pipeline for `config` on `input`, split into `threads` bands of equal height (at
+    /// most one per row); the fixed path writes `out_bits`-bit output (8 or 16), the float
+    /// path any.
+    pub fn new(
+        input: &Input<'a>,
+        config: &IspConfig<'a>,
+        fixed: bool,
+        out_bits: u8,
+        threads: usize,
+    ) -> Result<Self, IspError> {
+        let (w, h) = (input.width(), input.height());
+        let len = config.scratch_len(w, h).ok_or(IspError::InvalidParameter {
+            name: "frame size",
+            allowed: "a scratch length that fits usize",
+        })?;
+        let count = threads.clamp(1, h.max(1));
+        let per_band = h.div_ceil(count).max(1);
+        let bands: Vec<_> = (0..h)
+            .step_by(per_band)
+            .map(|start| start..(start + per_band).min(h))
+            .collect();
+        let path = if fixed {
+            let scratch = bands.iter().map(|_| vec![0u16; len]).collect();
+            PipelinePath::Fixed(Box::new(FixedPipeline::new(config, out_bits)?), scratch)
+        } else {
+            let scratch = bands.iter().map(|_| vec![0f32; len]).collect();
+            PipelinePath::Float(FloatPipeline::new(config)?, scratch)
+        };
+        Ok(Self {
+            input: *input,
+            path,
+            bands,
+        })
     }
-    let (w, h) = (raw.width(), raw.height());
-    let len = config.scratch_len(w, h).ok_or(IspError::InvalidParameter {
-        name: "frame size",
-        allowed: "a scratch length that fits usize",
-    })?;
-    let bits = if O::BITS == 16 { 16 } else { 8 };
-    let mut runner = if fixed {
-        let p = FixedPipeline::new(config, bits)?;
-        Runner::Fixed(Box::new(p), vec![0; len])
-    } else {
-        let p = FloatPipeline::new(config)?;
-        Runner::Float(p, vec![0.0; len])
-    };
-    let mut best = f64::INFINITY;
-    for _ in 0..3 {
-        let mut view = RgbViewMut::new(out, w, h, 3 * w)?;
-        let start = Instant::now();
-        match &mut runner {
-            Runner::Float(p, scratch) => p.run_input(*raw, 0..h, scratch, &mut view),
-            Runner::Fixed(p, scratch) => p.run_input(*raw, 0..h, scratch, &mut view),
-        }?;
-        best = best.min(start.elapsed().as_secs_f64() * 1e3);
+
+    /// Threads (bands) each run uses.
+    pub fn threads(&self) -> usize {
+        self.bands.len()
     }
-    Ok(best)
+
+    /// Runs the whole frame into `out` (`3 * width * height` samples) `repeats` times (at
+    /// least once) and returns the fastest run in milliseconds.
+    pub fn best_ms<O: OutputSample + Default + Send>(
+        &mut self,
+        out: &mut [O],
+        repeats: u32,
+    ) -> Result<f64, IspError> {
+        let mut best = f64::INFINITY;
+        for _ in 0..repeats.max(1) {
+            let start = Instant::now();
+            self.run(out)?;
+            best = best.min(start.elapsed().as_secs_f64() * 1e3);
+        }
+        Ok(best)
+    }
+
+    /// One run of every band, in parallel when there are several.
+    fn run<O: OutputSample + Send>(&mut self, out: &mut [O]) -> Result<(), IspError> {
+        let (w, input) = (self.input.width(), self.input);
+        let row_len = 3 * w;
+        if out.len() != row_len * self.input.height() {
+            return Err(IspError::InvalidParameter {
+                name: "output",
+                allowed: "3 * width * height samples",
+            });
+        }
+        let mut chunks = Vec::with_capacity(self.bands.len());
+        let mut rest = out;
+        for band in &self.bands {
+            let (chunk, tail) = rest.split_at_mut(band.len() * row_len);
+            chunks.push(chunk);
+            rest = tail;
+        }
+        fn band<O: OutputSample, S>(
+            run: impl Fn(&mut [S], &mut RgbViewMut<'_, O>) -> Result<(), IspError>,
+            rows: usize,
+            w: usize,
+            scratch: &mut [S],
+            chunk: &mut [O],
+        ) -> Result<(), IspError> {
+            let mut view = RgbViewMut::new(chunk, w, rows, 3 * w)?;
+            run(scratch, &mut view)
+        }
+        let bands = &self.bands;
+        match &mut self.path {
+            PipelinePath::Float(p, scratch) => {
+                let p = &*p;
+                parallel(bands, scratch, chunks, |rows, s, chunk| {
+                    let n = rows.len();
+                    band(
+                        |s, v| p.run_input(input, rows.clone(), s, v),
+                        n,
+                        w,
+                        s,
+                        chunk,
+                    )
+                })
+            }
+            PipelinePath::Fixed(p, scratch) => {
+                let p = &**p;
+                parallel(bands, scratch, chunks, |rows, s, chunk| {
+                    let n = rows.len();
+                    band(
+                        |s, v| p.run_input(input, rows.clone(), s, v),
+                        n,
+                        w,
+                        s,
+                        chunk,
+                    )
+                })
+            }
+        }
+    }
+}
+
+/// Runs `job` on each band with its scratch and output chunk: on this thread for one band,
+/// else one scoped thread per band. The first error wins.
+fn parallel<S: Send, O: Send>(
+    bands: &[std::ops::Range<usize>],
+    scratch: &mut [Vec<S>],
+    chunks: Vec<&mut [O]>,
+    job: impl Fn(std::ops::Range<usize>, &mut [S], &mut [O]) -> Result<(), IspError> + Sync,
+) -> Result<(), IspError> {
+    if bands.len() == 1 {
+        let (Some(s), Some(chunk)) = (scratch.first_mut(), chunks.into_iter().next()) else {
+            return Ok(());
+        };
+        return job(bands[0].clone(), s, chunk);
+    }
+    let job = &job;
+    std::thread::scope(|scope| {
+        let handles: Vec<_> = bands
+            .iter()
+            .zip(scratch.iter_mut())
+            .zip(chunks)
+            .map(|((rows, s), chunk)| scope.spawn(move || job(rows.clone(), s, chunk)))
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| {
+                h.join()
+                    .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+            })
+            .collect::<Result<Vec<()>, IspError>>()
+            .map(|_| ())
+    })
 }

@@ -4,7 +4,7 @@
 //! highlight stage the clipped lights come out magenta (white balance scales red and blue past
 //! the clipped green); with it they come out neutral.
 
-use camsim::develop::{develop, RawInput};
+use camsim::develop::{develop, RawInput, RunOptions};
 use camsim::isp_options::{CropChoice, IspOptions};
 
 /// Mean and 99th-percentile chroma (largest minus smallest 8-bit channel) of the output pixels
@@ -23,7 +23,7 @@ fn chroma_where_green_clipped(knee: f32) -> (f64, u16, usize) {
         baseline_exposure: Some(false),
         ..IspOptions::default()
     };
-    let (_, rgb) = develop(&input, &options, None).unwrap();
+    let (_, rgb) = develop(&input, &options, None, RunOptions::default()).unwrap();
     let raw = &input.raw;
     let (w, h) = (raw.width, raw.height);
     assert_eq!((rgb.width, rgb.height), (w, h));

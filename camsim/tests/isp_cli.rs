@@ -5,6 +5,88 @@ use common::camsim;
 
 use raw_formats::image::{self as imageio, Image};
 
+/// `--threads` splits the frame into bands run in parallel: the output is the same file for
+/// every count, on both paths, with defect correction, MHC and the highlight stage (whose
+/// windows cross the bands' edges); `--stage-times` adds the ablation table.
+#[test]
+fn isp_output_is_identical_for_every_thread_count() {
+    let dir = std::env::temp_dir().join(format!("camsim-isp-threads-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let input = dir.join("scene.pgm");
+    let (w, h) = (61usize, 37usize);
+    let mut state = 7u32;
+    let data = (0..w * h)
+        .map(|i| {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            let spike = if state >> 28 == 0 { 3000 } else { 0 };
+            (100 + (i % w) * 40 + (i / w) * 25 + (state >> 24) as usize + spike).min(4095) as u16
+        })
+        .collect();
+    let mosaic = Image {
+        width: w,
+        height: h,
+        channels: 1,
+        bits: 16,
+        data,
+    };
+    imageio::write(&input, &mosaic).unwrap();
+    for path in ["float", "fixed"] {
+        let mut outputs = Vec::new();
+        for threads in ["1", "2", "5", "37"] {
+            let output = dir.join(format!("out-{path}-{threads}.png"));
+            let mut args = vec![
+                "isp",
+                "--input",
+                input.to_str().unwrap(),
+                "--output",
+                output.to_str().unwrap(),
+                "--bits",
+                "12",
+                "--black-level",
+                "64",
+                "--demosaic",
+                "mhc",
+                "--dpc-threshold",
+                "300",
+                "--wb",
+                "1.8,1,1.5",
+                "--ccm",
+                "1.5,-0.3,-0.2,-0.2,1.4,-0.2,0,-0.4,1.4",
+                "--highlight-knee",
+                "0.8",
+                "--path",
+                path,
+                "--threads",
+                threads,
+            ];
+            if threads == "2" {
+                args.push("--stage-times");
+            }
+            let (ok, stdout, stderr) = camsim(&args);
+            assert!(ok, "{stderr}");
+            assert!(stdout.contains(&format!("{threads} thread")), "{stdout}");
+            assert_eq!(
+                stdout.contains("time per stage"),
+                threads == "2",
+                "{stdout}"
+            );
+            outputs.push(imageio::read(&output).unwrap().data);
+        }
+        assert!(outputs.iter().all(|o| *o == outputs[0]), "{path}");
+    }
+    let (ok, _, stderr) = camsim(&[
+        "isp",
+        "--input",
+        input.to_str().unwrap(),
+        "--output",
+        dir.join("x.png").to_str().unwrap(),
+        "--threads",
+        "0",
+    ]);
+    assert!(!ok && stderr.contains("--threads"), "{stderr}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn isp_writes_an_srgb_image_and_reports_stages_and_times() {
     let dir = std::env::temp_dir().join(format!("camsim-isp-cli-{}", std::process::id()));
@@ -49,7 +131,9 @@ fn isp_writes_an_srgb_image_and_reports_stages_and_times() {
             stdout.contains("awb: gains R 1.0000 G 1.0000 B 1.0000"),
             "{stdout}"
         );
-        assert!(stdout.contains("pipeline total"), "{stdout}");
+        // One pass by default: the total, no stage times.
+        assert!(stdout.contains("pipeline: "), "{stdout}");
+        assert!(!stdout.contains("time per stage"), "{stdout}");
         let rgb = imageio::read(&output).unwrap();
         assert_eq!(
             (rgb.width, rgb.height, rgb.channels, rgb.bits),
@@ -851,4 +935,82 @@ fn isp_develops_linear_raw_dngs_uncompressed_and_lossy() {
         assert!(!ok && stderr.contains("three (R, G, B)"), "{stderr}");
     }
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// `camsim bench isp` times the pipeline on its synthesised 2592 x 1968 frame and reports it
+/// beside a plain copy and, through the oracle environment, the OpenCV pipeline; without that
+/// environment it still times the pipeline and says on stderr that the peer was skipped.
+#[test]
+fn bench_isp_reports_the_pipeline_beside_its_peers() {
+    let args = [
+        "bench",
+        "isp",
+        "--json",
+        "--repeats",
+        "1",
+        "--threads",
+        "1",
+        "--path",
+        "fixed",
+        "--demosaic",
+        "mhc",
+        "--dpc-threshold",
+        "64",
+        "--wb",
+        "1.9,1,1.6",
+    ];
+    let run = |python: Option<&str>| {
+        let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_camsim"));
+        command.args(args);
+        if let Some(p) = python {
+            command.env("CAMSIM_ORACLE_PYTHON", p);
+        }
+        let out = command.output().unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let figures: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        (figures, String::from_utf8_lossy(&out.stderr).into_owned())
+    };
+    let check = |f: &serde_json::Value| {
+        assert_eq!(
+            (f["width"].as_u64(), f["height"].as_u64()),
+            (Some(2592), Some(1968))
+        );
+        assert_eq!(f["threads"], 1);
+        assert_eq!(f["path"], "fixed");
+        let ms = f["ms_per_frame"].as_f64().unwrap();
+        let mpix = f["mpix_per_s"].as_f64().unwrap();
+        assert!(
+            ms > 0.0 && (mpix * ms * 1e3 - 2592.0 * 1968.0).abs() < 1.0,
+            "{f}"
+        );
+        assert!(f["copy"]["ms_per_frame"].as_f64().unwrap() > 0.0, "{f}");
+        assert!(f["stages"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|s| s == "defective pixels"));
+    };
+    // With the oracle environment (required in CI), the OpenCV peer runs.
+    let (figures, stderr) = run(None);
+    check(&figures);
+    if std::env::var_os("CAMSIM_REQUIRE_ORACLE").is_some() {
+        let opencv = &figures["opencv"];
+        assert!(
+            opencv["ms_per_frame"].as_f64().is_some_and(|v| v > 0.0),
+            "{figures} {stderr}"
+        );
+        assert!(
+            opencv["time_ratio"].as_f64().is_some_and(|v| v > 0.0),
+            "{figures}"
+        );
+    }
+    // Without it, the pipeline alone, and a note.
+    let (figures, stderr) = run(Some("/nonexistent/python"));
+    check(&figures);
+    assert!(figures["opencv"].is_null(), "{figures}");
+    assert!(stderr.contains("OpenCV peer was skipped"), "{stderr}");
 }

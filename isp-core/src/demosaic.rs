@@ -419,8 +419,95 @@ const MHC_OPPOSITE: [Tap; 9] = [
     (2, 0, -3),
 ];
 
+/// What a CFA site lacks: at a green site, the colours lying horizontally and vertically;
+/// at a chroma site, the opposite chroma.
+#[derive(Clone, Copy)]
+enum Site {
+    Green { horizontal: usize, vertical: usize },
+    Chroma { opposite: usize },
+}
+
+impl Site {
+    fn at(pattern: CfaPattern, x: usize, y: usize) -> Self {
+        match pattern.colour_at(x, y) {
+            CfaColour::Green => Self::Green {
+                horizontal: pattern.colour_at(x + 1, y).index(),
+                vertical: pattern.colour_at(x, y + 1).index(),
+            },
+            CfaColour::Red => Self::Chroma { opposite: 2 },
+            CfaColour::Blue => Self::Chroma { opposite: 0 },
+        }
+    }
+}
+
+/// A 5x5 filter at interior column `x` (two or more from either edge), summed in the taps'
+/// order (which the float path's rounding depends on).
+#[inline(always)]
+fn interior_filter<T: Sample>(window: &[[T; 5]; 5], taps: &[Tap]) -> T {
+    let mut sum = T::Acc::default();
+    for &(dx, dy, k) in taps {
+        sum = sum + window[(2 + dy) as usize][(2 + dx) as usize].weighted(k);
+    }
+    T::scaled_down(sum, 4)
+}
+
+/// Malvar-He-Cutler at interior column `x`, a `site` pixel.
+#[inline(always)]
+fn mhc_interior<T: Sample>(rows: &[&[T]; 5], x: usize, site: Site, out: &mut [T]) {
+    let window: [[T; 5]; 5] = core::array::from_fn(|r| {
+        let row = &rows[r][x - 2..x + 3];
+        [row[0], row[1], row[2], row[3], row[4]]
+    });
+    let rows = &window;
+    let mut rgb = [rows[2][2]; 3];
+    match site {
+        Site::Green {
+            horizontal,
+            vertical,
+        } => {
+            rgb[horizontal] = interior_filter(rows, &MHC_CHROMA_HORIZONTAL);
+            rgb[vertical] = interior_filter(rows, &MHC_CHROMA_VERTICAL);
+        }
+        Site::Chroma { opposite } => {
+            rgb[1] = interior_filter(rows, &MHC_G_AT_CHROMA);
+            rgb[opposite] = interior_filter(rows, &MHC_OPPOSITE);
+        }
+    }
+    out[3 * x..3 * x + 3].copy_from_slice(&rgb);
+}
+
 /// Malvar-He-Cutler for one row of a frame at least 3x3; `rows` as for [`row`].
 fn mhc_row<T: Sample>(rows: [&[T]; 5], y: usize, pattern: CfaPattern, out: &mut [T]) {
+    let w = rows[2].len();
+    if w >= 6 {
+        // The interior in pairs of one site of each kind, the kinds fixed for the row, so
+        // the loop body has no colour tests and no reflection; the columns near the edges
+        // take the general loop below.
+        let sites = [Site::at(pattern, 0, y), Site::at(pattern, 1, y)];
+        let mut x = 2;
+        while x + 3 < w {
+            mhc_interior(&rows, x, sites[0], out);
+            mhc_interior(&rows, x + 1, sites[1], out);
+            x += 2;
+        }
+        for x in (0..2).chain(x..w) {
+            mhc_general(&rows, x, y, pattern, out);
+        }
+        return;
+    }
+    for x in 0..w {
+        mhc_general(&rows, x, y, pattern, out);
+    }
+}
+
+/// Malvar-He-Cutler at any column `x` of row `y`, reflecting columns at the edges.
+fn mhc_general<T: Sample>(
+    rows: &[&[T]; 5],
+    x: usize,
+    y: usize,
+    pattern: CfaPattern,
+    out: &mut [T],
+) {
     let w = rows[2].len();
     let pixel = |x: usize, cols: [usize; 5], out: &mut [T]| {
         let apply = |taps: &[Tap]| -> T {
@@ -444,15 +531,8 @@ fn mhc_row<T: Sample>(rows: [&[T]; 5], y: usize, pattern: CfaPattern, out: &mut 
         }
         out[3 * x..3 * x + 3].copy_from_slice(&rgb);
     };
-    for x in 0..w {
-        // Interior columns need no reflection.
-        let cols: [usize; 5] = if x >= 2 && x + 2 < w {
-            [x - 2, x - 1, x, x + 1, x + 2]
-        } else {
-            core::array::from_fn(|i| reflect(x as isize + i as isize - 2, w))
-        };
-        pixel(x, cols, out);
-    }
+    let cols: [usize; 5] = core::array::from_fn(|i| reflect(x as isize + i as isize - 2, w));
+    pixel(x, cols, out);
 }
 
 /// Demosaics the pixels `xs` of row `y` from its three source rows (above, itself, below);

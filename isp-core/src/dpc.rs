@@ -167,19 +167,45 @@ pub(crate) fn correct_span(
     let x1 = x0 + out.len();
     out.copy_from_slice(&mosaic.row(y)[x0..x1]);
     if let Some(threshold) = config.dynamic_threshold {
-        let row = mosaic.row(y);
-        for x in x0..x1 {
-            let v = row[x];
-            let (mut values, n) = neighbours(raw, config, x, y);
-            if n < 3 {
-                continue; // too few neighbours to call the pixel an outlier
+        // Interior pixels of rows whose neighbourhood holds no static defect have all eight
+        // neighbours unmirrored: the vectorised detection below, then the general rule for
+        // the few it flags. Everything else takes the general rule directly.
+        let (w, h) = (mosaic.width(), mosaic.height());
+        let static_near = !config.static_defects.is_empty() && {
+            let first = config
+                .static_defects
+                .partition_point(|d| (d.y as usize) + 2 < y);
+            config
+                .static_defects
+                .get(first)
+                .is_some_and(|d| (d.y as usize) <= y + 2)
+        };
+        let (lo, hi) = if y >= 2 && y + 2 < h && w >= 5 && !static_near {
+            let (lo, hi) = (x0.max(2), x1.min(w - 2));
+            if lo < hi {
+                (lo, hi)
+            } else {
+                (x1, x1)
             }
-            let values = &mut values[..n];
-            values.sort_unstable();
-            let hot = v as u32 > values[n - 2] as u32 + threshold as u32;
-            let cold = (v as u32) + (threshold as u32) < values[1] as u32;
-            if hot || cold {
-                out[x - x0] = median(values);
+        } else {
+            (x1, x1)
+        };
+        for x in (x0..lo).chain(hi..x1) {
+            if let Some(v) = dynamic_replacement(raw, config, x, y, threshold) {
+                out[x - x0] = v;
+            }
+        }
+        let mut flags = [false; DETECT_BLOCK];
+        for start in (lo..hi).step_by(DETECT_BLOCK) {
+            // lo < hi only when y is at least two rows from either edge.
+            let rows = [mosaic.row(y - 2), mosaic.row(y), mosaic.row(y + 2)];
+            let n = DETECT_BLOCK.min(hi - start);
+            detect_interior(rows, start, threshold, &mut flags[..n]);
+            for (i, _) in flags[..n].iter().enumerate().filter(|f| *f.1) {
+                let x = start + i;
+                if let Some(v) = dynamic_replacement(raw, config, x, y, threshold) {
+                    out[x - x0] = v;
+                }
             }
         }
     }
@@ -200,6 +226,57 @@ pub(crate) fn correct_span(
             }
         }
     }
+}
+
+/// Pixels the vectorised detection handles at a time.
+const DETECT_BLOCK: usize = 128;
+
+/// Flags the pixels `x0..x0 + flags.len()` (all at least two from every frame edge) that
+/// dynamic detection would replace: above the second-largest of the eight same-colour
+/// neighbours by more than `threshold`, or below the second-smallest by more. `rows` are rows
+/// `y - 2`, `y` and `y + 2`. Branch-free over contiguous slices so it vectorises; saturating
+/// `u16` sums give the comparisons of the `u32` ones in [`dynamic_replacement`].
+#[inline]
+fn detect_interior(rows: [&[u16]; 3], x0: usize, threshold: u16, flags: &mut [bool]) {
+    let n = flags.len();
+    let tap = |r: usize, dx: usize| &rows[r][x0 + dx - 2..x0 + dx - 2 + n];
+    let (nw, no, ne) = (tap(0, 0), tap(0, 2), tap(0, 4));
+    let (we, own, ea) = (tap(1, 0), tap(1, 2), tap(1, 4));
+    let (sw, so, se) = (tap(2, 0), tap(2, 2), tap(2, 4));
+    for i in 0..n {
+        let values = [nw[i], no[i], ne[i], we[i], ea[i], sw[i], so[i], se[i]];
+        // The two largest and two smallest, kept as running pairs.
+        let (mut max1, mut max2, mut min1, mut min2) = (0u16, 0u16, u16::MAX, u16::MAX);
+        for v in values {
+            max2 = max2.max(max1.min(v));
+            max1 = max1.max(v);
+            min2 = min2.min(min1.max(v));
+            min1 = min1.min(v);
+        }
+        let v = own[i];
+        flags[i] = (v > max2.saturating_add(threshold)) | (v.saturating_add(threshold) < min2);
+    }
+}
+
+/// The dynamic rule at `(x, y)`: the median of the usable neighbours if the pixel is an
+/// outlier among at least three of them.
+fn dynamic_replacement(
+    raw: &RawFrame<'_>,
+    config: &DpcConfig<'_>,
+    x: usize,
+    y: usize,
+    threshold: u16,
+) -> Option<u16> {
+    let v = raw.mosaic().row(y)[x];
+    let (mut values, n) = neighbours(raw, config, x, y);
+    if n < 3 {
+        return None; // too few neighbours to call the pixel an outlier
+    }
+    let values = &mut values[..n];
+    values.sort_unstable();
+    let hot = v as u32 > values[n - 2] as u32 + threshold as u32;
+    let cold = (v as u32) + (threshold as u32) < values[1] as u32;
+    (hot || cold).then(|| median(values))
 }
 
 /// The usable same-colour neighbours of `(x, y)`: mirrored at the edges, leaving out the pixel

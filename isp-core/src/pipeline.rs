@@ -92,7 +92,7 @@ use crate::distortion::LensDistortion;
 use crate::dpc::{self, DpcConfig};
 use crate::frame::{LinearFrame, RawFrame, RgbViewMut, Sample};
 use crate::lsc::{LensShading, MAX_GRID_SIDE};
-use crate::srgb::{self, EncodeLut};
+use crate::srgb::{self, EncodeLut, EncodeThresholds8};
 use crate::tone::{Tone, ToneLut};
 use crate::{ccm, denoise, highlights, wb, IspError};
 
@@ -356,25 +356,32 @@ trait Path {
     fn linear_span(&self, frame: &LinearFrame<'_>, y: usize, out: &mut [Self::P]);
     /// Whether the highlight stage is on.
     fn highlights_on(&self) -> bool;
-    /// The highlight stage on a demosaiced pixel with the 3x3 raw samples around it.
-    fn highlights(&self, rgb: [Self::P; 3], neighbourhood: [Self::P; 9]) -> [Self::P; 3];
-    /// Denoise (or pass through) pixel `x` of the middle row.
-    fn filtered(&self, rows: [&[Self::P]; 3], x: usize) -> [Self::P; 3];
-    /// CCM, tone and encoding.
-    fn finish<O: OutputSample>(&self, rgb: [Self::P; 3]) -> [O; 3];
+    /// The largest of the 3x3 raw samples around a pixel.
+    fn brightest(neighbourhood: [Self::P; 9]) -> Self::P;
+    /// The highlight stage on a demosaiced pixel whose 3x3 raw neighbourhood peaks at
+    /// `brightest`.
+    fn highlights(&self, rgb: [Self::P; 3], brightest: Self::P) -> [Self::P; 3];
+    /// Denoise (or pass through) the middle row of `rows`, then CCM, tone and encoding, into
+    /// `out` (a row of the output).
+    fn finish_row<O: OutputSample>(&self, rows: [&[Self::P]; 3], out: &mut [O]);
 }
 
 /// The float reference path.
 #[derive(Debug, Clone, Copy)]
 pub struct FloatPipeline<'a> {
     config: IspConfig<'a>,
+    /// The exact 8-bit encoding as thresholds.
+    codes8: EncodeThresholds8,
 }
 
 impl<'a> FloatPipeline<'a> {
     /// A checked pipeline.
     pub fn new(config: &IspConfig<'a>) -> Result<Self, IspError> {
         config.validate()?;
-        Ok(Self { config: *config })
+        Ok(Self {
+            config: *config,
+            codes8: EncodeThresholds8::new(),
+        })
     }
 
     /// Scratch elements [`FloatPipeline::run`] needs for a `width` x `height` frame (see
@@ -495,27 +502,43 @@ impl Path for FloatPipeline<'_> {
         self.config.highlight_knee < 1.0
     }
 
-    fn highlights(&self, rgb: [f32; 3], neighbourhood: [f32; 9]) -> [f32; 3] {
-        let n = neighbourhood.iter().fold(0.0f32, |a, b| a.max(*b));
-        highlights::neutralise_f32(rgb, n, self.config.highlight_knee)
+    #[inline(always)]
+    fn brightest(neighbourhood: [f32; 9]) -> f32 {
+        neighbourhood.iter().fold(0.0f32, |a, b| a.max(*b))
     }
 
-    fn filtered(&self, rows: [&[f32]; 3], x: usize) -> [f32; 3] {
-        if self.config.denoise > 0.0 {
-            denoise::pixel_f32(rows, x, self.config.denoise)
-        } else {
-            [rows[1][3 * x], rows[1][3 * x + 1], rows[1][3 * x + 2]]
-        }
+    #[inline]
+    fn highlights(&self, rgb: [f32; 3], brightest: f32) -> [f32; 3] {
+        highlights::neutralise_f32(rgb, brightest, self.config.highlight_knee)
     }
 
-    fn finish<O: OutputSample>(&self, rgb: [f32; 3]) -> [O; 3] {
+    fn finish_row<O: OutputSample>(&self, rows: [&[f32]; 3], out: &mut [O]) {
         let c = &self.config;
-        let lin = if c.ccm == IDENTITY {
-            rgb
-        } else {
-            ccm::apply_f32(&c.ccm, rgb)
-        };
-        c.tone.apply(lin).map(|v| O::from_encoded(srgb::encode(v)))
+        // Every switch is decided once per row, so the loop holds only the stages that run.
+        let denoise = c.denoise > 0.0;
+        let ccm_on = c.ccm != IDENTITY;
+        let tone_on = !(c.tone.saturation_is_identity() && c.tone.curve_is_identity());
+        for (x, px) in out.chunks_exact_mut(3).enumerate() {
+            let rgb = if denoise {
+                denoise::pixel_f32(rows, x, c.denoise)
+            } else {
+                [rows[1][3 * x], rows[1][3 * x + 1], rows[1][3 * x + 2]]
+            };
+            let lin = if ccm_on {
+                ccm::apply_f32(&c.ccm, rgb)
+            } else {
+                rgb
+            };
+            let lin = if tone_on { c.tone.apply(lin) } else { lin };
+            for (o, v) in px.iter_mut().zip(lin) {
+                *o = if O::BITS == 8 {
+                    // The exact curve's code, found among thresholds (srgb module).
+                    O::from_code(u32::from(self.codes8.code(v)))
+                } else {
+                    O::from_encoded(srgb::encode(v))
+                };
+            }
+        }
     }
 }
 
@@ -669,15 +692,30 @@ impl Path for FixedPipeline<'_> {
         let pattern = mosaic.pattern();
         let recip: [u64; 4] =
             core::array::from_fn(|p| recip_q16(raw.white_level() - raw.black_level()[p]));
+        let Some(lsc) = &self.lsc else {
+            // Without shading every sample of one CFA position takes the same steps: the
+            // constants of the row's two positions are fetched once.
+            let black = raw.black_level();
+            let steps: [(u16, u64, usize); 2] = core::array::from_fn(|i| {
+                let x = x0 + i;
+                let position = (y & 1) * 2 + (x & 1);
+                let colour = pattern.colour_at(x, y).index();
+                (black[position], recip[position], colour)
+            });
+            for (o, r) in out.chunks_mut(2).zip(dpc.chunks(2)) {
+                for ((o, r), &(black, recip, colour)) in o.iter_mut().zip(r).zip(&steps) {
+                    *o = self.pointwise(r.saturating_sub(black), recip, None, colour);
+                }
+            }
+            return;
+        };
         let mut nodes = [0u32; 2 * MAX_GRID_SIDE];
-        if let Some(lsc) = &self.lsc {
-            lsc.row_nodes_q16(y, h, &mut nodes);
-        }
+        lsc.row_nodes_q16(y, h, &mut nodes);
         for (i, (o, &r)) in out.iter_mut().zip(dpc).enumerate() {
             let x = x0 + i;
             let position = (y & 1) * 2 + (x & 1);
             let d = r.saturating_sub(raw.black_level()[position]);
-            let shading = self.lsc.as_ref().map(|lsc| lsc.gain_q16(&nodes, x, w));
+            let shading = Some(lsc.gain_q16(&nodes, x, w));
             let colour = pattern.colour_at(x, y).index();
             *o = self.pointwise(d, recip[position], shading, colour);
         }
@@ -707,32 +745,59 @@ impl Path for FixedPipeline<'_> {
         self.highlights.is_some()
     }
 
-    fn highlights(&self, rgb: [u16; 3], neighbourhood: [u16; 9]) -> [u16; 3] {
+    #[inline(always)]
+    fn brightest(neighbourhood: [u16; 9]) -> u16 {
+        neighbourhood.iter().fold(0, |a, b| a.max(*b))
+    }
+
+    #[inline]
+    fn highlights(&self, rgb: [u16; 3], brightest: u16) -> [u16; 3] {
         match &self.highlights {
-            Some(knee) => knee.neutralise(rgb, neighbourhood.iter().copied().max().unwrap_or(0)),
+            Some(knee) => knee.neutralise(rgb, brightest),
             None => rgb,
         }
     }
 
-    fn filtered(&self, rows: [&[u16]; 3], x: usize) -> [u16; 3] {
-        match self.inverse_denoise {
-            Some(inv) => denoise::pixel_u16(rows, x, inv),
-            None => [rows[1][3 * x], rows[1][3 * x + 1], rows[1][3 * x + 2]],
+    fn finish_row<O: OutputSample>(&self, rows: [&[u16]; 3], out: &mut [O]) {
+        if self.inverse_denoise.is_none()
+            && self.saturation_q.is_none()
+            && self.tone_lut.is_none()
+            && O::BITS == 8
+        {
+            // The common camera pipeline: colour matrix (or none) and 8-bit encoding only.
+            let encode = |v: u16| O::from_code(self.encode.lookup(v));
+            let (row, pixels) = (rows[1], out.chunks_exact_mut(3));
+            match &self.ccm_q {
+                Some(m) => {
+                    for (px, rgb) in pixels.zip(row.chunks_exact(3)) {
+                        let lin = ccm::apply_u16(m, CCM_FRAC_BITS, [rgb[0], rgb[1], rgb[2]]);
+                        px.copy_from_slice(&lin.map(encode));
+                    }
+                }
+                None => {
+                    for (o, v) in out.iter_mut().zip(row) {
+                        *o = encode(*v);
+                    }
+                }
+            }
+            return;
         }
-    }
-
-    fn finish<O: OutputSample>(&self, rgb: [u16; 3]) -> [O; 3] {
-        let mut lin = rgb;
-        if let Some(m) = &self.ccm_q {
-            lin = ccm::apply_u16(m, CCM_FRAC_BITS, lin);
+        for (x, px) in out.chunks_exact_mut(3).enumerate() {
+            let mut lin = match self.inverse_denoise {
+                Some(inv) => denoise::pixel_u16(rows, x, inv),
+                None => [rows[1][3 * x], rows[1][3 * x + 1], rows[1][3 * x + 2]],
+            };
+            if let Some(m) = &self.ccm_q {
+                lin = ccm::apply_u16(m, CCM_FRAC_BITS, lin);
+            }
+            if let Some(m) = &self.saturation_q {
+                lin = ccm::apply_u16(m, SATURATION_FRAC_BITS, lin);
+            }
+            if let Some(lut) = &self.tone_lut {
+                lin = lin.map(|v| lut.lookup(v));
+            }
+            px.copy_from_slice(&lin.map(|v| O::from_code(self.encode.lookup(v))));
         }
-        if let Some(m) = &self.saturation_q {
-            lin = ccm::apply_u16(m, SATURATION_FRAC_BITS, lin);
-        }
-        if let Some(lut) = &self.tone_lut {
-            lin = lin.map(|v| lut.lookup(v));
-        }
-        lin.map(|v| O::from_code(self.encode.lookup(v)))
     }
 }
 
@@ -813,7 +878,7 @@ impl<A: Path> Engine<'_, '_, A> {
             for px in out.chunks_exact_mut(3) {
                 let rgb = [px[0], px[1], px[2]];
                 let own: [A::P; 9] = core::array::from_fn(|i| rgb[i % 3]);
-                px.copy_from_slice(&self.path.highlights(rgb, own));
+                px.copy_from_slice(&self.path.highlights(rgb, A::brightest(own)));
             }
         }
     }
@@ -858,11 +923,19 @@ impl<A: Path> Engine<'_, '_, A> {
             out,
         )?;
         if self.path.highlights_on() {
+            let [up, mid, down] = [source[1], source[2], source[3]];
             for (x, px) in out.chunks_exact_mut(3).enumerate() {
-                let columns = [-1isize, 0, 1].map(|dx| reflect(x as isize + dx, w));
-                let neighbourhood: [A::P; 9] =
-                    core::array::from_fn(|i| source[1 + i / 3][columns[i % 3]]);
-                let rgb = self.path.highlights([px[0], px[1], px[2]], neighbourhood);
+                let neighbourhood: [A::P; 9] = if x > 0 && x + 1 < w {
+                    // Interior: the three columns without reflection.
+                    let (u, m, d) = (&up[x - 1..x + 2], &mid[x - 1..x + 2], &down[x - 1..x + 2]);
+                    [u[0], u[1], u[2], m[0], m[1], m[2], d[0], d[1], d[2]]
+                } else {
+                    let columns = [-1isize, 0, 1].map(|dx| reflect(x as isize + dx, w));
+                    core::array::from_fn(|i| source[1 + i / 3][columns[i % 3]])
+                };
+                let rgb = self
+                    .path
+                    .highlights([px[0], px[1], px[2]], A::brightest(neighbourhood));
                 px.copy_from_slice(&rgb);
             }
         }
@@ -980,12 +1053,7 @@ fn run_rows<A: Path, O: OutputSample>(
             let slot = ry % RGB_ROWS;
             &ring[slot * 3 * w..(slot + 1) * 3 * w]
         });
-        let out_row = out.row_mut(y - rows.start);
-        for x in 0..w {
-            let rgb = path.filtered(window, x);
-            let px: [O; 3] = path.finish(rgb);
-            out_row[3 * x..3 * x + 3].copy_from_slice(&px);
-        }
+        path.finish_row(window, out.row_mut(y - rows.start));
     }
     Ok(())
 }

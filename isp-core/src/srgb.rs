@@ -51,12 +51,24 @@ const HIGH_ENTRIES: usize = 65536 / 16 + 1;
 /// interpolate linearly between entries 16 input steps apart. The interpolated value is within
 /// 0.5 output LSB of the exact curve at either depth (a test sweeps every input), and the
 /// output is that value rounded. Size: 5121 `u32`, 20 KiB.
+///
+/// For 8-bit output [`EncodeLut::lookup`] reads two more tables of 4096 bytes instead: the code
+/// at the start of each run of 16 inputs, and where in the run it steps up by one (the curve
+/// rises by under one 8-bit code per 16 inputs, 0.8 at its steepest), which gives the
+/// interpolated table's codes exactly with two byte loads and no arithmetic.
 #[derive(Clone)]
 pub struct EncodeLut {
     low: [u32; LOW_ENTRIES],
     high: [u32; HIGH_ENTRIES],
+    /// 8-bit output: the code of input `16 * i`.
+    base8: [u8; RUNS],
+    /// 8-bit output: the offset in run `i` from which the code is `base8[i] + 1` (16: none).
+    step8: [u8; RUNS],
     max: u32,
 }
+
+/// Runs of 16 inputs in the 16-bit linear range.
+const RUNS: usize = 65536 / 16;
 
 impl core::fmt::Debug for EncodeLut {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
@@ -95,7 +107,24 @@ impl EncodeLut {
         for (i, v) in high.iter_mut().enumerate() {
             *v = exact((16 * i) as f64);
         }
-        Ok(Self { low, high, max })
+        let mut lut = Self {
+            low,
+            high,
+            base8: [0; RUNS],
+            step8: [16; RUNS],
+            max,
+        };
+        if max == 255 {
+            for run in 0..RUNS {
+                let first = (16 * run) as u16;
+                let base = lut.interpolated(first);
+                lut.base8[run] = base as u8;
+                if let Some(offset) = (1..16u16).find(|i| lut.interpolated(first + i) > base) {
+                    lut.step8[run] = offset as u8;
+                }
+            }
+        }
+        Ok(lut)
     }
 
     /// Largest output value (255 or 65535).
@@ -118,6 +147,116 @@ impl EncodeLut {
     /// The encoded value, rounded to the output depth.
     #[inline]
     pub fn lookup(&self, linear: u16) -> u32 {
+        if self.max == 255 {
+            let run = usize::from(linear >> 4);
+            let offset = (linear & 15) as u8;
+            u32::from(self.base8[run]) + u32::from(offset >= self.step8[run])
+        } else {
+            self.interpolated(linear)
+        }
+    }
+
+    /// [`EncodeLut::lookup`] from the interpolated tables.
+    #[inline]
+    fn interpolated(&self, linear: u16) -> u32 {
         ((self.lookup_q8(linear) + 128) >> 8).min(self.max)
+    }
+}
+
+/// Inputs above which each 8-bit code starts, for the float path: the exact 8-bit encoding
+/// `round(255 * encode(x))` ([`encode`], then [`crate::pipeline::OutputSample`]'s rounding)
+/// without evaluating a power.
+///
+/// The code of `x` is the number of thresholds at or below it. Threshold `k` is the smallest
+/// `f32` whose exact code is at least `k`, found once by bisection over the bit patterns of
+/// `[0, 1]` (non-negative floats order as their bits). That equals the exact encoding wherever
+/// the exact encoding is monotone in `x`, which the tests check at every `f32` near every
+/// threshold. A table indexed by the top bits of `x` gives the code at the start of its bucket
+/// of 2^17 floats, from which at most two thresholds follow (the curve rises by at most 1.3
+/// codes per bucket), so a lookup is a byte load and one or two compares. Size: 9 KiB.
+#[derive(Clone, Copy)]
+pub struct EncodeThresholds8 {
+    /// `thresholds[k]` for `k` in `1..=255`; `thresholds[0]` is 0 and `thresholds[256]` is
+    /// above every input, so a search never runs off the end.
+    thresholds: [f32; 257],
+    /// The code of the first float of each bucket of 2^17 (`x.to_bits() >> 17`), up to 1.0.
+    bucket: [u8; BUCKETS],
+}
+
+/// Buckets of 2^17 floats that cover `[0, 1]`: `1.0f32.to_bits() >> 17` is the last.
+const BUCKETS: usize = (0x3F80_0000 >> 17) + 1;
+
+impl core::fmt::Debug for EncodeThresholds8 {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("EncodeThresholds8").finish_non_exhaustive()
+    }
+}
+
+impl Default for EncodeThresholds8 {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// The exact 8-bit code of linear `x`: the float path's definition.
+#[inline]
+pub fn exact_code8(x: f32) -> u8 {
+    // As OutputSample for u8: the encoded value is in [0, 1], so adding a half and
+    // truncating rounds half away from zero.
+    (encode(x) * 255.0 + 0.5) as u8
+}
+
+impl EncodeThresholds8 {
+    /// The thresholds, from 255 bisections of about 30 steps each over the exact curve.
+    pub fn new() -> Self {
+        let one = 1.0f32.to_bits();
+        let mut thresholds = [0.0f32; 257];
+        thresholds[256] = f32::INFINITY;
+        let mut lo_bits = 0u32;
+        for (k, t) in thresholds.iter_mut().enumerate().take(256).skip(1) {
+            // The smallest bit pattern in lo_bits..=one whose code reaches k (1.0's is 255).
+            let (mut lo, mut hi) = (lo_bits, one);
+            while lo < hi {
+                let mid = lo + (hi - lo) / 2;
+                if usize::from(exact_code8(f32::from_bits(mid))) >= k {
+                    hi = mid;
+                } else {
+                    lo = mid + 1;
+                }
+            }
+            *t = f32::from_bits(lo);
+            lo_bits = lo;
+        }
+        let mut bucket = [0u8; BUCKETS];
+        let mut code = 0usize;
+        for (i, b) in bucket.iter_mut().enumerate() {
+            let first = f32::from_bits((i as u32) << 17);
+            while first >= thresholds[code + 1] {
+                code += 1;
+            }
+            *b = code as u8;
+        }
+        Self { thresholds, bucket }
+    }
+
+    /// The 8-bit code of linear `x` (clamped to `[0, 1]`, NaN as 0), equal to
+    /// [`exact_code8`].
+    #[inline]
+    pub fn code(&self, x: f32) -> u8 {
+        let x = clamp01(x);
+        let mut k = usize::from(self.bucket[(x.to_bits() >> 17) as usize]);
+        // At most two thresholds follow a bucket's start (checked by the tests): two steps
+        // without branches, and a loop that never runs (bounded by the sentinel at 256).
+        k += usize::from(x >= self.thresholds[k + 1]);
+        k += usize::from(x >= self.thresholds[k + 1]);
+        while x >= self.thresholds[k + 1] {
+            k += 1;
+        }
+        k as u8
+    }
+
+    /// The smallest linear input of each code `1..=255` (for tests and tables).
+    pub fn thresholds(&self) -> &[f32] {
+        &self.thresholds[1..256]
     }
 }

@@ -10,11 +10,12 @@ use isp_core::dpc::{correct_row, Defect, DefectMap, DpcConfig};
 use isp_core::frame::{RawFrame, RgbView, RgbViewMut};
 use isp_core::lsc::LensShading;
 use isp_core::pipeline::{scratch_len, FixedPipeline, IspConfig};
-use isp_core::srgb::{self, EncodeLut};
+use isp_core::srgb::{self, exact_code8, EncodeLut, EncodeThresholds8};
 use isp_core::tone::{Look, Tone, ToneCurve, ToneLut};
 use isp_core::wb::{self, AwbMethod, WbPreset};
 use isp_core::CfaPattern;
 use isp_core::IspError;
+use proptest::prelude::*;
 
 /// A smooth 12-bit scene in the mosaic: each CFA colour a gentle ramp.
 fn smooth_scene(w: usize, h: usize, pattern: CfaPattern) -> Vec<u16> {
@@ -35,6 +36,114 @@ fn correct(data: &[u16], w: usize, h: usize, p: CfaPattern, config: &DpcConfig) 
         correct_row(&raw, config, y, &mut out[y * w..(y + 1) * w]).unwrap();
     }
     out
+}
+
+/// The dynamic rule written out pixel by pixel, as the dpc module states it: the usable
+/// same-colour neighbours (mirrored about the pixel off the frame; not the pixel, not listed),
+/// an outlier among three or more by more than the threshold replaced by their median; listed
+/// pixels replaced by the median of whatever neighbours are usable.
+fn dpc_rule(data: &[u16], w: usize, h: usize, config: &DpcConfig) -> Vec<u16> {
+    let listed = |x: usize, y: usize| {
+        config.static_defects.contains(&Defect {
+            x: x as u16,
+            y: y as u16,
+        })
+    };
+    let mirror = |i: usize, d: isize, n: usize| {
+        [i as isize + d, i as isize - d]
+            .into_iter()
+            .find(|v| (0..n as isize).contains(v))
+            .map(|v| v as usize)
+    };
+    let mut out = data.to_vec();
+    for y in 0..h {
+        for x in 0..w {
+            let mut n = Vec::new();
+            for (dx, dy) in [
+                (-2, -2),
+                (0, -2),
+                (2, -2),
+                (-2, 0),
+                (2, 0),
+                (-2, 2),
+                (0, 2),
+                (2, 2),
+            ] {
+                if let (Some(nx), Some(ny)) = (mirror(x, dx, w), mirror(y, dy, h)) {
+                    if (nx, ny) != (x, y) && !listed(nx, ny) {
+                        n.push(data[ny * w + nx] as u32);
+                    }
+                }
+            }
+            n.sort();
+            let median = |n: &[u32]| {
+                let k = n.len();
+                if k % 2 == 1 {
+                    n[k / 2]
+                } else {
+                    (n[k / 2 - 1] + n[k / 2]).div_ceil(2)
+                }
+            };
+            let v = data[y * w + x] as u32;
+            if listed(x, y) {
+                if !n.is_empty() {
+                    out[y * w + x] = median(&n) as u16;
+                }
+            } else if let (Some(t), true) = (config.dynamic_threshold, n.len() >= 3) {
+                let k = n.len();
+                if v > n[k - 2] + t as u32 || v + (t as u32) < n[1] {
+                    out[y * w + x] = median(&n) as u16;
+                }
+            }
+        }
+    }
+    out
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(300))]
+    /// Defect correction, whose interior runs a vectorised detection, equals the rule written
+    /// out pixel by pixel, on noisy frames with spikes and listed pixels, at any width
+    /// (spanning several detection blocks) and any threshold.
+    #[test]
+    fn dpc_equals_the_rule_pixel_by_pixel(
+        w in 1usize..300,
+        h in 1usize..9,
+        seed in any::<u64>(),
+        // Samples and thresholds on a grid of 50 as well, so the comparisons meet ties.
+        threshold in prop_oneof![
+            Just(None),
+            (0u16..2000).prop_map(Some),
+            (0u16..12).prop_map(|k| Some(50 * k)),
+            Just(Some(u16::MAX)),
+        ],
+        grid in any::<bool>(),
+        listed in prop::collection::vec((0usize..300, 0usize..9), 0..4),
+    ) {
+        let mut state = seed | 1;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let data: Vec<u16> = (0..w * h)
+            .map(|_| match next() % 16 {
+                0 => 4095,
+                1 => 0,
+                _ if grid => 1500 + 50 * (next() % 8) as u16,
+                _ => 1500 + (next() % 400) as u16,
+            })
+            .collect();
+        let mut map: DefectMap<8> = DefectMap::new();
+        for (x, y) in listed.iter().filter(|(x, y)| *x < w && *y < h) {
+            map.insert(Defect { x: *x as u16, y: *y as u16 }).unwrap();
+        }
+        let config = DpcConfig { static_defects: map.as_slice(), dynamic_threshold: threshold };
+        for pattern in [CfaPattern::Rggb, CfaPattern::Gbrg] {
+            prop_assert_eq!(correct(&data, w, h, pattern, &config), dpc_rule(&data, w, h, &config));
+        }
+    }
 }
 
 /// Hot, dead and stuck pixels, alone, in clusters (a 2x2 block and a same-colour pair) and on
@@ -380,6 +489,61 @@ fn encode_lut_within_half_lsb_of_exact_curve() {
     assert!(EncodeLut::new(12).is_err());
     // The float curve itself: a spot check against the formula.
     assert!((srgb::encode(0.5) - 0.735_356_6).abs() < 1e-6);
+}
+
+/// The 8-bit lookup (a code per run of 16 inputs and where it steps) gives the interpolated
+/// table's rounded value at every input.
+#[test]
+fn encode_lut_8bit_runs_equal_the_interpolated_codes() {
+    let lut = EncodeLut::new(8).unwrap();
+    for v in 0..=65535u16 {
+        let interpolated = ((lut.lookup_q8(v) + 128) >> 8).min(255);
+        assert_eq!(lut.lookup(v), interpolated, "input {v}");
+    }
+}
+
+/// The float path's 8-bit encoder (thresholds) gives the exact curve's code: at every float
+/// within 2^16 ulps of every threshold (where a non-monotone power could disagree), at a
+/// spread of floats across [0, 1] and at the edges; and no bucket of its table is followed by
+/// more than the two thresholds its lookup steps over without a loop.
+#[test]
+fn encode_thresholds_give_the_exact_codes() {
+    let codes = EncodeThresholds8::new();
+    let t = codes.thresholds();
+    assert_eq!(t.len(), 255);
+    assert!(t.windows(2).all(|p| p[0] < p[1]));
+    for &threshold in t {
+        let bits = threshold.to_bits();
+        for b in bits.saturating_sub(1 << 16)..=(bits + (1 << 16)).min(1.0f32.to_bits()) {
+            let x = f32::from_bits(b);
+            assert_eq!(codes.code(x), exact_code8(x), "x = {x:e}");
+        }
+    }
+    for b in (0..=1.0f32.to_bits()).step_by(4099) {
+        let x = f32::from_bits(b);
+        assert_eq!(codes.code(x), exact_code8(x), "x = {x:e}");
+    }
+    for x in [
+        0.0f32,
+        -0.0,
+        -1.0,
+        1.0,
+        2.0,
+        f32::NAN,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+    ] {
+        assert_eq!(codes.code(x), exact_code8(x), "x = {x}");
+    }
+    // Buckets of 2^17 floats: at most two thresholds after each bucket's first float.
+    for bucket in 0..=(1.0f32.to_bits() >> 17) {
+        let (first, last) = (bucket << 17, (bucket << 17) + (1 << 17) - 1);
+        let inside = t
+            .iter()
+            .filter(|v| v.to_bits() > first && v.to_bits() <= last)
+            .count();
+        assert!(inside <= 2, "bucket {bucket}: {inside} thresholds");
+    }
 }
 
 /// The tone table follows the exact tone function to well under an 8-bit step; the identity

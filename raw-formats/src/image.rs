@@ -275,6 +275,9 @@ fn write_png(path: &Path, image: &Image) -> Result<()> {
     } else {
         png::BitDepth::Sixteen
     });
+    // fdeflate's PNG-tuned encoder: on a 5 Mpix photo about 10x faster than the default
+    // level for files about a tenth larger, so writing does not outlast developing.
+    encoder.set_compression(png::Compression::Fast);
     let mut writer = encoder
         .write_header()
         .map_err(|e| FormatError::PngEncode(e).in_file(path))?;

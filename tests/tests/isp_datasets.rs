@@ -3,7 +3,7 @@
 //! within 2 everywhere; `camsim isp`'s development reproduces the documented float semantics (the f64
 //! reference) within 1 LSB on a Kodak image.
 
-use camsim::develop::{develop, RawInput};
+use camsim::develop::{develop, RawInput, RunOptions};
 use camsim::isp_options;
 use camsim_tests::dataset;
 use camsim_tests::isp_reference::{reference, Frame, Settings};
@@ -133,7 +133,7 @@ fn camsim_isp_reproduces_the_float_semantics_on_kodak() {
         "isp.toml".as_ref(),
     )
     .unwrap();
-    let (report, out) = develop(&input, &options, None).unwrap();
+    let (report, out) = develop(&input, &options, None, RunOptions::default()).unwrap();
     assert_eq!(out.bits, 8);
     assert!(report.stages.contains(&"denoise") && report.stages.contains(&"colour matrix"));
     let frame = Frame {

@@ -283,13 +283,21 @@ impl Tiff<'_> {
             self.cfa_pattern(ifd)?
         };
 
-        // Each sample takes at least one bit of the file: a header cannot claim more.
+        // Each sample takes at least one bit of the file (a Huffman code per difference in
+        // lossless JPEG), or in lossy JPEG each 8x8 block of a component at least two (its DC
+        // and end-of-block codes): a header cannot claim more. (A smooth lossy file can hold
+        // well under a bit per sample; a clean-clone run found one.)
         let total = width * height * spp;
-        if total > self.data.len().saturating_mul(8) {
+        let samples_per_bit = if matches!(coding, Coding::LossyJpeg) {
+            32
+        } else {
+            1
+        };
+        if total > self.data.len().saturating_mul(8 * samples_per_bit) {
             return Err(FormatError::SizeMismatch {
                 what: "bytes for the image's samples",
                 found: self.data.len(),
-                expected: total.div_ceil(8),
+                expected: total.div_ceil(8 * samples_per_bit),
             });
         }
         let segments = self.segments(ifd, width, height)?;

@@ -8,7 +8,13 @@ use camsim::Error;
 use clap::{Args, Subcommand};
 use host_tracer::render_bench::{bench, table, BenchSettings};
 
+use camsim::develop::{with_prepared, RawInput, Runner};
+use isp_core::pipeline::Input;
+use isp_core::CfaPattern;
+use raw_formats::RawImage;
+
 use crate::args::{DemosaicArg, RenderFlags};
+use crate::commands::isp::ProcessingArgs;
 use crate::progress::Progress;
 
 #[derive(Subcommand)]
@@ -22,6 +28,28 @@ pub enum BenchCommand {
     /// linearising and cropping, from bytes in memory; `scripts/bench-dng-decode.py` runs it
     /// beside LibRaw's unpack of the same file.
     Dng(BenchDngArgs),
+    /// Time the ISP pipeline alone (best of the repeats) on a raw file, or on a synthesised
+    /// 2592 x 1968 10-bit RGGB frame, beside a plain copy of the same bytes and an OpenCV
+    /// pipeline of the same stages run through the oracle environment's Python
+    /// ($CAMSIM_ORACLE_PYTHON, else .venv/bin/python).
+    Isp(Box<BenchIspArgs>),
+}
+
+#[derive(Args)]
+pub struct BenchIspArgs {
+    /// Raw input, as for camsim isp [default: a synthesised 2592 x 1968 10-bit RGGB frame,
+    /// black 64, white 1023].
+    #[arg(long)]
+    input: Option<PathBuf>,
+    /// Runs of the pipeline (and of each peer); the fastest is reported.
+    #[arg(long, default_value_t = 10)]
+    repeats: u32,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    json: bool,
+    /// How to process, as for camsim isp.
+    #[command(flatten)]
+    processing: ProcessingArgs,
 }
 
 #[derive(Args)]
@@ -105,7 +133,250 @@ pub fn run(command: &BenchCommand) -> Result<String, Error> {
         BenchCommand::Demosaic(args) => bench_demosaic(args),
         BenchCommand::Render(args) => bench_render(args),
         BenchCommand::Dng(args) => bench_dng(args),
+        BenchCommand::Isp(args) => bench_isp(args),
     }
+}
+
+/// What `camsim bench isp` measured.
+#[derive(serde::Serialize)]
+struct IspFigures {
+    input: String,
+    width: usize,
+    height: usize,
+    path: &'static str,
+    stages: Vec<&'static str>,
+    threads: usize,
+    repeats: u32,
+    ms_per_frame: f64,
+    mpix_per_s: f64,
+    ns_per_pixel: f64,
+    /// A plain copy of the raw frame's bytes.
+    copy: PeerFigures,
+    /// The OpenCV pipeline, if the oracle environment ran it.
+    opencv: Option<PeerFigures>,
+    /// Why the OpenCV peer did not run, if it did not.
+    peers_skipped: Option<String>,
+}
+
+#[derive(serde::Serialize)]
+struct PeerFigures {
+    what: String,
+    ms_per_frame: f64,
+    /// Our time over the peer's: below 1, camsim is faster.
+    time_ratio: f64,
+}
+
+/// The frame `camsim bench isp` synthesises: 2592 x 1968, 10 bits, RGGB, black 64: gentle
+/// ramps per CFA colour with a little noise, as a scene has (not flat, not pure noise).
+fn synthetic_frame() -> Result<RawInput, Error> {
+    let (w, h) = (2592usize, 1968usize);
+    let mut state = 0x2545_f491u32;
+    let samples = (0..w * h)
+        .map(|i| {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            let (x, y) = (i % w, i / w);
+            let colour = (y & 1) + (x & 1);
+            let ramp = 64 + 150 * colour + x * 500 / w + y * 150 / h;
+            (ramp + (state % 24) as usize).min(1023) as u16
+        })
+        .collect();
+    let raw = RawImage::new(w, h, CfaPattern::Rggb, 10, [64; 4], 1023, samples)?;
+    let mut input = RawInput::plain(raw);
+    input.defaults.black_level = Some(vec![64]);
+    input.defaults.white_level = Some(1023);
+    Ok(input)
+}
+
+fn bench_isp(args: &BenchIspArgs) -> Result<String, Error> {
+    if args.repeats == 0 {
+        return Err(Error::Option {
+            option: "--repeats",
+            value: "0".into(),
+            allowed: "at least 1".into(),
+        });
+    }
+    let (input, name) = match &args.input {
+        Some(path) => (RawInput::read(path)?, path.display().to_string()),
+        None => (
+            synthetic_frame()?,
+            "synthesised 2592x1968 10-bit RGGB".into(),
+        ),
+    };
+    let processing = &args.processing;
+    let options = processing.options()?;
+    let calibration = processing.calibration()?;
+    let threads = processing.threads();
+    let mut progress = Progress::new("bench isp");
+    let figures = with_prepared(&input, &options, calibration, |p| {
+        let (w, h) = (p.input.width(), p.input.height());
+        progress.step("camsim pipeline");
+        let mut runner = Runner::new(&p.input, &p.config, p.fixed, p.out_bits, threads)?;
+        let ms = if p.out_bits == 8 {
+            runner.best_ms(&mut vec![0u8; w * h * 3], args.repeats)?
+        } else {
+            runner.best_ms(&mut vec![0u16; w * h * 3], args.repeats)?
+        };
+        progress.step("copy");
+        let copy_ms = copy_ms(&input.raw.samples, args.repeats);
+        let copy = PeerFigures {
+            what: format!(
+                "copy of the raw frame's {} MB",
+                input.raw.samples.len() * 2 / 1_000_000
+            ),
+            ms_per_frame: copy_ms,
+            time_ratio: ms / copy_ms,
+        };
+        progress.step("OpenCV pipeline");
+        let (opencv, peers_skipped) = match &p.input {
+            Input::Mosaic(raw) => match opencv_peer(raw, &p.config, threads, args.repeats) {
+                Ok(peer_ms) => (
+                    Some(PeerFigures {
+                        what: "OpenCV: subtract, cvtColor Bayer 16-bit, multiply, transform, \
+                               convertScaleAbs, LUT"
+                            .into(),
+                        ms_per_frame: peer_ms,
+                        time_ratio: ms / peer_ms,
+                    }),
+                    None,
+                ),
+                Err(why) => (None, Some(why)),
+            },
+            Input::Linear(_) => (None, Some("the input is linear (no Bayer stage)".into())),
+        };
+        let mut stages = vec!["black level"];
+        if p.config.dpc.is_active() {
+            stages.push("defective pixels");
+        }
+        if p.config.wb_gains != [1.0; 3] {
+            stages.push("white balance");
+        }
+        if matches!(p.input, Input::Mosaic(_)) {
+            stages.push(p.config.demosaic.name());
+        }
+        if p.config.highlight_knee < 1.0 {
+            stages.push("highlights");
+        }
+        if p.config.ccm != isp_core::pipeline::IDENTITY {
+            stages.push("colour matrix");
+        }
+        stages.push("sRGB encode");
+        Ok(IspFigures {
+            input: name,
+            width: w,
+            height: h,
+            path: if p.fixed { "fixed" } else { "float" },
+            stages,
+            threads: runner.threads(),
+            repeats: args.repeats,
+            ms_per_frame: ms,
+            mpix_per_s: (w * h) as f64 / (ms * 1e3),
+            ns_per_pixel: ms * 1e6 / (w * h) as f64,
+            copy,
+            opencv,
+            peers_skipped,
+        })
+    })?;
+    progress.finish();
+    if let Some(why) = &figures.peers_skipped {
+        eprintln!("note: the OpenCV peer was skipped: {why}");
+    }
+    if args.json {
+        return json(&figures);
+    }
+    let f = &figures;
+    let mut out = format!(
+        "{}: {} x {}, {} path, {} ({} thread{})\n  camsim     {:9.2} ms per frame, {:7.1} Mpix/s, {:.2} ns per pixel (best of {})\n",
+        f.input,
+        f.width,
+        f.height,
+        f.path,
+        f.stages.join(" -> "),
+        f.threads,
+        if f.threads == 1 { "" } else { "s" },
+        f.ms_per_frame,
+        f.mpix_per_s,
+        f.ns_per_pixel,
+        f.repeats
+    );
+    for peer in [Some(&f.copy), f.opencv.as_ref()].into_iter().flatten() {
+        out += &format!(
+            "  {:<60} {:9.2} ms: camsim takes {:.2}x its time\n",
+            peer.what, peer.ms_per_frame, peer.time_ratio
+        );
+    }
+    Ok(out)
+}
+
+/// The fastest of `repeats` copies of `samples` into another buffer, in milliseconds.
+fn copy_ms(samples: &[u16], repeats: u32) -> f64 {
+    let mut target = vec![0u16; samples.len()];
+    let mut best = f64::INFINITY;
+    for _ in 0..repeats {
+        let start = std::time::Instant::now();
+        target.copy_from_slice(std::hint::black_box(samples));
+        std::hint::black_box(&mut target);
+        best = best.min(start.elapsed().as_secs_f64() * 1e3);
+    }
+    best
+}
+
+/// Runs the OpenCV pipeline (`bench_isp_opencv.py`) on the same frame and settings through
+/// the oracle environment; its best time in milliseconds, or why it could not run.
+fn opencv_peer(
+    raw: &isp_core::frame::RawFrame<'_>,
+    config: &isp_core::pipeline::IspConfig<'_>,
+    threads: usize,
+    repeats: u32,
+) -> Result<f64, String> {
+    let python = std::env::var_os("CAMSIM_ORACLE_PYTHON")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(".venv/bin/python"));
+    if !python.exists() {
+        return Err(format!(
+            "no oracle Python at {} (scripts/test-all.sh creates .venv; or set CAMSIM_ORACLE_PYTHON)",
+            python.display()
+        ));
+    }
+    let mosaic = raw.mosaic();
+    let (w, h) = (mosaic.width(), mosaic.height());
+    let bytes: Vec<u8> = (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .flat_map(|(x, y)| mosaic.get(x, y).unwrap_or(0).to_le_bytes())
+        .collect();
+    let frame = std::env::temp_dir().join(format!("camsim-bench-isp-{}.u16", std::process::id()));
+    std::fs::write(&frame, &bytes).map_err(|e| format!("writing {}: {e}", frame.display()))?;
+    let pattern = format!("{:?}", mosaic.pattern()).to_uppercase();
+    let request = serde_json::json!({
+        "frame": frame.display().to_string(),
+        "width": w,
+        "height": h,
+        "pattern": pattern,
+        "black": raw.black_level()[0],
+        "white": raw.white_level(),
+        "wb": config.wb_gains.map(|g| g * config.gain),
+        "ccm": config.ccm,
+        "threads": threads,
+        "repeats": repeats,
+    });
+    let output = std::process::Command::new(&python)
+        .arg("-c")
+        .arg(include_str!("bench_isp_opencv.py"))
+        .arg(request.to_string())
+        .output();
+    let _ = std::fs::remove_file(&frame);
+    let output = output.map_err(|e| format!("running {}: {e}", python.display()))?;
+    if !output.status.success() {
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        let last = stderr.lines().last().unwrap_or("no message");
+        return Err(format!("the OpenCV script failed: {last}"));
+    }
+    let reply: serde_json::Value = serde_json::from_slice(&output.stdout)
+        .map_err(|e| format!("the OpenCV script's reply: {e}"))?;
+    reply["ms_per_frame"]
+        .as_f64()
+        .ok_or_else(|| "the OpenCV script gave no time".into())
 }
 
 fn bench_dng(args: &BenchDngArgs) -> Result<String, Error> {

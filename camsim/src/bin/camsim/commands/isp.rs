@@ -5,7 +5,7 @@
 
 use std::path::PathBuf;
 
-use camsim::develop::{develop, RawInput};
+use camsim::develop::{develop, RawInput, RunOptions};
 use camsim::isp_options::{self as options, IspOptions, WhiteBalance};
 use camsim::Error;
 use clap::Args;
@@ -28,6 +28,19 @@ pub struct IspArgs {
     /// JPEG quality, 1..=100, for a .jpg output [default: 90].
     #[arg(long, value_parser = clap::value_parser!(u8).range(1..=100))]
     pub jpeg_quality: Option<u8>,
+    /// Also time each stage, by ablation: the pipeline runs once more per stage that is on,
+    /// each best of three (the pipeline is fused, so a stage's time is a run with it minus
+    /// a run without it).
+    #[arg(long)]
+    pub stage_times: bool,
+    /// How to process.
+    #[command(flatten)]
+    pub processing: ProcessingArgs,
+}
+
+/// The processing options of `camsim isp` (and `camsim bench isp`).
+#[derive(Args, Debug, Clone)]
+pub struct ProcessingArgs {
     /// TOML file of processing options, keyed by these flags' names (plus an `[lsc]` grid and
     /// a `defects` list); flags given on the command line win.
     #[arg(long)]
@@ -100,9 +113,13 @@ pub struct IspArgs {
     /// converters do; LibRaw leaves it out).
     #[arg(long)]
     pub no_baseline_exposure: bool,
+    /// Threads: the frame runs as that many bands in parallel (the output is the same for
+    /// any count) [default: every core].
+    #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
+    pub threads: Option<u16>,
 }
 
-impl IspArgs {
+impl ProcessingArgs {
     /// The processing options given as flags.
     pub fn flag_options(&self) -> Result<IspOptions, Error> {
         let list = |text: &Option<String>, what: &str, counts: &[usize]| {
@@ -151,6 +168,20 @@ impl IspArgs {
         })
     }
 
+    /// Threads given, else every core.
+    pub fn threads(&self) -> usize {
+        self.threads
+            .map_or(RunOptions::default().threads, usize::from)
+    }
+
+    /// The calibration file's, if given.
+    pub fn calibration(&self) -> Result<Option<isp_core::ccm::Calibration>, Error> {
+        match &self.calibration {
+            Some(path) => Ok(Some(CalibrationFile::read(path)?.to_isp()?)),
+            None => Ok(None),
+        }
+    }
+
     /// The options to run with: flags, then the config file, each `None` left to its default.
     pub fn options(&self) -> Result<IspOptions, Error> {
         let flags = self.flag_options()?;
@@ -164,11 +195,9 @@ impl IspArgs {
 /// Runs `camsim isp`; returns the report text.
 pub fn run(args: &IspArgs) -> Result<String, Error> {
     let input = RawInput::read(&args.input)?;
-    let options = args.options()?;
-    let calibration = match &args.calibration {
-        Some(path) => Some(CalibrationFile::read(path)?.to_isp()?),
-        None => None,
-    };
+    let processing = &args.processing;
+    let options = processing.options()?;
+    let calibration = processing.calibration()?;
     for (name, optional) in &input.opcodes_not_applied {
         let kind = if *optional {
             "optional"
@@ -177,7 +206,11 @@ pub fn run(args: &IspArgs) -> Result<String, Error> {
         };
         eprintln!("note: the file's {name} opcode ({kind}) is not applied yet");
     }
-    let (report, rgb) = develop(&input, &options, calibration).map_err(|e| match e {
+    let run = RunOptions {
+        threads: processing.threads(),
+        stage_times: args.stage_times,
+    };
+    let (report, rgb) = develop(&input, &options, calibration, run).map_err(|e| match e {
         e @ Error::SampleRange { .. } => e.in_file(&args.input),
         e => e,
     })?;

@@ -1,0 +1,56 @@
+"""The OpenCV peer of `camsim bench isp`: the same stages done the usual OpenCV way, timed in
+the same run. Embedded in camsim and run with the oracle environment's Python.
+
+argv[1]: a JSON object {frame, width, height, pattern, black, white, wb, ccm, threads, repeats}
+where frame is a file of width * height little-endian uint16 raw samples. Prints one JSON
+object {ms_per_frame, stages}.
+
+Stages: black level (cv2.subtract, saturating), Bayer bilinear demosaic at 16 bits
+(cv2.cvtColor), white balance and normalisation as one per-channel scale to float32
+(cv2.multiply), the colour matrix (cv2.transform), then 8-bit linear codes
+(cv2.convertScaleAbs) through an sRGB table (cv2.LUT). OpenCV has no defect correction, so
+none runs. The 8-bit linear step loses shadow detail camsim keeps: this is a speed peer."""
+
+import json
+import sys
+import time
+
+import cv2
+import numpy as np
+
+CODES = {"RGGB": cv2.COLOR_BayerBG2RGB, "BGGR": cv2.COLOR_BayerRG2RGB,
+         "GRBG": cv2.COLOR_BayerGB2RGB, "GBRG": cv2.COLOR_BayerGR2RGB}
+
+
+def main():
+    a = json.loads(sys.argv[1])
+    cv2.setNumThreads(a["threads"])
+    w, h = a["width"], a["height"]
+    raw = np.fromfile(a["frame"], dtype="<u2").reshape(h, w)
+    black, white = a["black"], a["white"]
+    scale = tuple(g / (white - black) for g in a["wb"])
+    ccm = np.array(a["ccm"], dtype=np.float32)
+    x = np.arange(256) / 255.0
+    lut = np.round(255 * np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055)).astype(np.uint8)
+    code = CODES[a["pattern"]]
+
+    def run():
+        d = cv2.subtract(raw, black)
+        rgb = cv2.cvtColor(d, code)
+        lin = cv2.multiply(rgb, scale, dtype=cv2.CV_32F)
+        out = cv2.transform(lin, ccm)
+        return cv2.LUT(cv2.convertScaleAbs(out, alpha=255.0), lut)
+
+    best = float("inf")
+    for _ in range(a["repeats"]):
+        t = time.perf_counter()
+        run()
+        best = min(best, time.perf_counter() - t)
+    print(json.dumps({
+        "ms_per_frame": best * 1e3,
+        "stages": "cv2.subtract, cv2.cvtColor (Bayer, 16-bit), cv2.multiply, cv2.transform, cv2.convertScaleAbs, cv2.LUT",
+    }))
+
+
+if __name__ == "__main__":
+    main()

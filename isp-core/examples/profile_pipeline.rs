@@ -1,0 +1,61 @@
+//! Runs the pipeline on a synthetic 2592x1968 10-bit RGGB frame in a loop, for `perf record`:
+//! `cargo run --release -p isp-core --example profile_pipeline -- fixed mhc 20`.
+//! Arguments: path (float or fixed), demosaic method, frames. Prints ms per frame.
+
+use isp_core::dpc::DpcConfig;
+use isp_core::frame::{RawFrame, RgbViewMut};
+use isp_core::pipeline::{FixedPipeline, FloatPipeline, IspConfig};
+use isp_core::CfaPattern;
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let path = args.get(1).map_or("fixed", String::as_str);
+    let method = args.get(2).map_or("mhc", String::as_str).parse().unwrap();
+    let frames: usize = args.get(3).map_or(10, |s| s.parse().unwrap());
+    let knee: f32 = args.get(4).map_or(1.0, |s| s.parse().unwrap());
+    let (w, h) = (2592usize, 1968usize);
+    // A smooth gradient with texture, as a scene is: not constant, not noise.
+    let mut state = 1u32;
+    let data: Vec<u16> = (0..w * h)
+        .map(|i| {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            let (x, y) = (i % w, i / w);
+            let base = 64 + (x * 700 / w + y * 200 / h) as u32;
+            (base + (state >> 28)).min(1023) as u16
+        })
+        .collect();
+    let raw = RawFrame::new(&data, w, h, w, 10, CfaPattern::Rggb, [64; 4], 1023).unwrap();
+    let config = IspConfig {
+        dpc: DpcConfig {
+            static_defects: &[],
+            dynamic_threshold: Some(64),
+        },
+        wb_gains: [1.9, 1.0, 1.6],
+        demosaic: method,
+        highlight_knee: knee,
+        ccm: [[1.6, -0.4, -0.2], [-0.3, 1.5, -0.2], [0.0, -0.5, 1.5]],
+        ..IspConfig::default()
+    };
+    let mut out = vec![0u8; w * h * 3];
+    let len = config.scratch_len(w, h).unwrap();
+    let mut best = f64::INFINITY;
+    for _ in 0..frames {
+        let mut view = RgbViewMut::new(&mut out, w, h, 3 * w).unwrap();
+        let start = std::time::Instant::now();
+        if path == "fixed" {
+            let p = FixedPipeline::new(&config, 8).unwrap();
+            let mut scratch = vec![0u16; len];
+            p.run(&raw, 0..h, &mut scratch, &mut view).unwrap();
+        } else {
+            let p = FloatPipeline::new(&config).unwrap();
+            let mut scratch = vec![0f32; len];
+            p.run(&raw, 0..h, &mut scratch, &mut view).unwrap();
+        }
+        best = best.min(start.elapsed().as_secs_f64() * 1e3);
+    }
+    let checksum: u64 = out.iter().map(|v| u64::from(*v)).sum();
+    println!(
+        "{path} {method:?}: {best:.2} ms per frame, {:.1} Mpix/s, checksum {checksum}",
+        (w * h) as f64 / best / 1e3
+    );
+}
