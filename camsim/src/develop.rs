@@ -694,84 +694,62 @@ impl<'a> Runner<'a> {
 
     /// One run of every band, in parallel when there are several.
     fn run<O: OutputSample + Send>(&mut self, out: &mut [O]) -> Result<(), IspError> {
-        let (w, input) = (self.input.width(), self.input);
-        let row_len = 3 * w;
-        if out.len() != row_len * self.input.height() {
+        let input = self.input;
+        let w = input.width();
+        if out.len() != 3 * w * input.height() {
             return Err(IspError::InvalidParameter {
                 name: "output",
                 allowed: "3 * width * height samples",
             });
         }
-        let mut chunks = Vec::with_capacity(self.bands.len());
-        let mut rest = out;
-        for band in &self.bands {
-            let (chunk, tail) = rest.split_at_mut(band.len() * row_len);
-            chunks.push(chunk);
-            rest = tail;
-        }
-        fn band<O: OutputSample, S>(
-            run: impl Fn(&mut [S], &mut RgbViewMut<'_, O>) -> Result<(), IspError>,
-            rows: usize,
-            w: usize,
-            scratch: &mut [S],
-            chunk: &mut [O],
-        ) -> Result<(), IspError> {
-            let mut view = RgbViewMut::new(chunk, w, rows, 3 * w)?;
-            run(scratch, &mut view)
-        }
         let bands = &self.bands;
         match &mut self.path {
             PipelinePath::Float(p, scratch) => {
                 let p = &*p;
-                parallel(bands, scratch, chunks, |rows, s, chunk| {
-                    let n = rows.len();
-                    band(
-                        |s, v| p.run_input(input, rows.clone(), s, v),
-                        n,
-                        w,
-                        s,
-                        chunk,
-                    )
+                parallel(bands, w, scratch, out, |rows, s, view| {
+                    p.run_input(input, rows, s, view)
                 })
             }
             PipelinePath::Fixed(p, scratch) => {
                 let p = &**p;
-                parallel(bands, scratch, chunks, |rows, s, chunk| {
-                    let n = rows.len();
-                    band(
-                        |s, v| p.run_input(input, rows.clone(), s, v),
-                        n,
-                        w,
-                        s,
-                        chunk,
-                    )
+                parallel(bands, w, scratch, out, |rows, s, view| {
+                    p.run_input(input, rows, s, view)
                 })
             }
         }
     }
 }
 
-/// Runs `job` on each band with its scratch and output chunk: on this thread for one band,
-/// else one scoped thread per band. The first error wins.
-fn parallel<S: Send, O: Send>(
+/// Runs `job` on each band (rows of a frame `w` pixels wide) with its scratch and its rows of
+/// `out`: on this thread for one band, else one scoped thread per band. The first error wins.
+fn parallel<S: Send, O: OutputSample + Send>(
     bands: &[std::ops::Range<usize>],
+    w: usize,
     scratch: &mut [Vec<S>],
-    chunks: Vec<&mut [O]>,
-    job: impl Fn(std::ops::Range<usize>, &mut [S], &mut [O]) -> Result<(), IspError> + Sync,
+    out: &mut [O],
+    job: impl Fn(std::ops::Range<usize>, &mut [S], &mut RgbViewMut<'_, O>) -> Result<(), IspError>
+        + Sync,
 ) -> Result<(), IspError> {
-    if bands.len() == 1 {
-        let (Some(s), Some(chunk)) = (scratch.first_mut(), chunks.into_iter().next()) else {
-            return Ok(());
-        };
-        return job(bands[0].clone(), s, chunk);
+    let mut chunks = Vec::with_capacity(bands.len());
+    let mut rest = out;
+    for band in bands {
+        let (chunk, tail) = rest.split_at_mut(band.len() * 3 * w);
+        chunks.push(chunk);
+        rest = tail;
     }
-    let job = &job;
+    let run_band = |rows: &std::ops::Range<usize>, s: &mut Vec<S>, chunk: &mut [O]| {
+        let mut view = RgbViewMut::new(chunk, w, rows.len(), 3 * w)?;
+        job(rows.clone(), s, &mut view)
+    };
+    if let ([rows], [s], [chunk]) = (bands, &mut *scratch, chunks.as_mut_slice()) {
+        return run_band(rows, s, chunk);
+    }
     std::thread::scope(|scope| {
         let handles: Vec<_> = bands
             .iter()
             .zip(scratch.iter_mut())
             .zip(chunks)
-            .map(|((rows, s), chunk)| scope.spawn(move || job(rows.clone(), s, chunk)))
+            .map(|((rows, s), chunk)| scope.spawn(|| run_band(rows, s, chunk)))
             .collect();
         handles
             .into_iter()

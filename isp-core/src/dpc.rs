@@ -180,13 +180,10 @@ pub(crate) fn correct_span(
                 .get(first)
                 .is_some_and(|d| (d.y as usize) <= y + 2)
         };
+        // The interior columns of the span, lo..hi (empty unless the row qualifies).
         let (lo, hi) = if y >= 2 && y + 2 < h && w >= 5 && !static_near {
-            let (lo, hi) = (x0.max(2), x1.min(w - 2));
-            if lo < hi {
-                (lo, hi)
-            } else {
-                (x1, x1)
-            }
+            let lo = x0.max(2).min(x1);
+            (lo, x1.min(w - 2).max(lo))
         } else {
             (x1, x1)
         };
@@ -195,16 +192,18 @@ pub(crate) fn correct_span(
                 out[x - x0] = v;
             }
         }
-        let mut flags = [false; DETECT_BLOCK];
-        for start in (lo..hi).step_by(DETECT_BLOCK) {
-            // lo < hi only when y is at least two rows from either edge.
+        if lo < hi {
+            // A non-empty interior means y is at least two rows from either edge.
             let rows = [mosaic.row(y - 2), mosaic.row(y), mosaic.row(y + 2)];
-            let n = DETECT_BLOCK.min(hi - start);
-            detect_interior(rows, start, threshold, &mut flags[..n]);
-            for (i, _) in flags[..n].iter().enumerate().filter(|f| *f.1) {
-                let x = start + i;
-                if let Some(v) = dynamic_replacement(raw, config, x, y, threshold) {
-                    out[x - x0] = v;
+            let mut flags = [false; DETECT_BLOCK];
+            for start in (lo..hi).step_by(DETECT_BLOCK) {
+                let n = DETECT_BLOCK.min(hi - start);
+                detect_interior(rows, start, threshold, &mut flags[..n]);
+                for (i, _) in flags[..n].iter().enumerate().filter(|f| *f.1) {
+                    let x = start + i;
+                    if let Some(v) = dynamic_replacement(raw, config, x, y, threshold) {
+                        out[x - x0] = v;
+                    }
                 }
             }
         }

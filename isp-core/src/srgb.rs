@@ -201,9 +201,7 @@ impl Default for EncodeThresholds8 {
 /// The exact 8-bit code of linear `x`: the float path's definition.
 #[inline]
 pub fn exact_code8(x: f32) -> u8 {
-    // As OutputSample for u8: the encoded value is in [0, 1], so adding a half and
-    // truncating rounds half away from zero.
-    (encode(x) * 255.0 + 0.5) as u8
+    <u8 as crate::pipeline::OutputSample>::from_encoded(encode(x))
 }
 
 impl EncodeThresholds8 {
