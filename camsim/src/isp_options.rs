@@ -254,12 +254,13 @@ pub fn pattern(text: &str, what: &str) -> Result<CfaPattern> {
 
 /// Parses the name of a demosaicing method the pipeline runs.
 pub fn demosaic(text: &str, what: &str) -> Result<Method> {
-    text.parse()
-        .ok()
-        .filter(|m: &Method| m.streams())
-        .ok_or_else(|| {
-            OptionError::not_allowed(what, "one of nearest, bilinear, mhc", format!("{text:?}"))
-        })
+    text.parse().map_err(|_| {
+        OptionError::not_allowed(
+            what,
+            "one of nearest, bilinear, mhc, directional",
+            format!("{text:?}"),
+        )
+    })
 }
 
 /// Parses a look name.

@@ -30,10 +30,13 @@ fn isp_output_is_identical_for_every_thread_count() {
         data,
     };
     imageio::write(&input, &mosaic).unwrap();
-    for path in ["float", "fixed"] {
+    for (path, method) in ["float", "fixed"]
+        .into_iter()
+        .flat_map(|p| ["mhc", "directional"].map(|m| (p, m)))
+    {
         let mut outputs = Vec::new();
         for threads in ["1", "2", "5", "37"] {
-            let output = dir.join(format!("out-{path}-{threads}.png"));
+            let output = dir.join(format!("out-{path}-{method}-{threads}.png"));
             let mut args = vec![
                 "isp",
                 "--input",
@@ -45,7 +48,7 @@ fn isp_output_is_identical_for_every_thread_count() {
                 "--black-level",
                 "64",
                 "--demosaic",
-                "mhc",
+                method,
                 "--dpc-threshold",
                 "300",
                 "--wb",
@@ -72,7 +75,7 @@ fn isp_output_is_identical_for_every_thread_count() {
             );
             outputs.push(imageio::read(&output).unwrap().data);
         }
-        assert!(outputs.iter().all(|o| *o == outputs[0]), "{path}");
+        assert!(outputs.iter().all(|o| *o == outputs[0]), "{path} {method}");
     }
     let (ok, _, stderr) = camsim(&[
         "isp",

@@ -19,9 +19,9 @@
 //!
 //! **Directional** ([`directional::directional`]) is the high-quality method: directional
 //! colour differences with gradient weights, computed in `f32` over ring buffers of 16 rows in
-//! caller scratch (see its module). It needs an 11-pixel window, so it is a whole-frame function:
-//! [`Method::Directional`] names it, but the 5-row streaming [`row`] (and so the pipeline and
-//! [`demosaic`]) refuse it.
+//! caller scratch (see its module). It needs an 11-pixel window, so the 5-row [`row`] (and
+//! [`demosaic`], a loop over it) refuse it; the pipeline runs it through its own ring buffers
+//! ([`crate::pipeline`]).
 //!
 //! Every method works on `u8` and `u16` (integer arithmetic) and on `f32` in `[0, 1]` (the
 //! same filters, exact division, clamped to `[0, 1]`): see [`Sample`].
@@ -56,10 +56,10 @@ pub enum Border {
     OpenCv,
 }
 
-/// A demosaicing method: the one list of isp-core's methods. The first three stream row by
-/// row ([`row`], [`demosaic`], the pipeline; reflect-101 borders); [`Method::Directional`] is
-/// the whole-frame [`directional::directional`] (and its integer twin
-/// [`directional::directional_fixed`]), which the streaming functions refuse.
+/// A demosaicing method: the one list of isp-core's methods. The pipeline runs every one. The
+/// first three also run from five rows ([`row`], [`demosaic`]; reflect-101 borders);
+/// [`Method::Directional`] is [`directional::directional`] (and its integer twin
+/// [`directional::directional_fixed`]) with its own ring buffers, which [`row`] refuses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Method {
     /// 2x2 superpixel replication, the cheapest preview.
@@ -69,7 +69,7 @@ pub enum Method {
     Bilinear,
     /// Malvar-He-Cutler 2004 gradient-corrected 5x5 filters.
     Mhc,
-    /// The high-quality directional method (whole-frame only, so far).
+    /// The high-quality directional method.
     Directional,
 }
 
@@ -77,7 +77,7 @@ impl Method {
     /// All methods, cheapest first.
     pub const ALL: [Method; 4] = [Self::Nearest, Self::Bilinear, Self::Mhc, Self::Directional];
 
-    /// The methods [`row`] and the pipeline run.
+    /// The methods [`row`] runs.
     pub const STREAMING: [Method; 3] = [Self::Nearest, Self::Bilinear, Self::Mhc];
 
     /// The method's name as the command line spells it.
@@ -90,7 +90,7 @@ impl Method {
         }
     }
 
-    /// Whether [`row`] (and so the pipeline) runs it.
+    /// Whether [`row`] runs it (the pipeline runs every method).
     pub const fn streams(self) -> bool {
         !matches!(self, Self::Directional)
     }
@@ -109,7 +109,7 @@ impl Method {
         IspError::InvalidParameter {
             name: "demosaic method",
             allowed:
-                "nearest, bilinear or mhc when streaming (directional is whole-frame only so far)",
+                "nearest, bilinear or mhc from five rows (directional: directional::directional, or the pipeline)",
         }
     }
 }

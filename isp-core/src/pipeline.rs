@@ -57,6 +57,14 @@
 //! before, so running a frame in bands of any height gives bit-identical output to running it
 //! whole; a band recomputes the few rows of context above and below it.
 //!
+//! The directional method ([`crate::demosaic::directional`]) reads 11 rows either side, so it
+//! keeps its own ring buffers of its working values (`f32` in the float path, `i32` in the
+//! fixed path, carved from the `u16` scratch two elements each) and the mosaic ring holds
+//! just the row being prepared: [`FloatPipeline::scratch_len`] and
+//! [`FixedPipeline::scratch_len`] give each path's need. At 4096 pixels wide that is 1.54 MiB
+//! for the fixed path and 1.65 MiB for the float path (1.50 MB of it the directional rings,
+//! [`directional::scratch_len`]); a band restarts the method 12 rows above its first row.
+//!
 //! Distortion correction is the one stage whose window is not fixed: an output row reads the
 //! input rows the lens bent it across ([`LensDistortion::window_rows`], a few for a mild lens,
 //! tens for strong barrel distortion on a large frame). With it on, the demosaiced ring holds
@@ -87,6 +95,7 @@
 
 use core::ops::Range;
 
+use crate::demosaic::directional::{self, Arithmetic, Fixed, Float, Stream};
 use crate::demosaic::{self, reflect, Method};
 use crate::distortion::LensDistortion;
 use crate::dpc::{self, DpcConfig};
@@ -169,12 +178,6 @@ impl IspConfig<'_> {
     /// Checks every parameter.
     pub fn validate(&self) -> Result<(), IspError> {
         self.dpc.validate()?;
-        if !self.demosaic.streams() {
-            return Err(IspError::InvalidParameter {
-                name: "demosaic",
-                allowed: "nearest, bilinear or mhc in the pipeline (directional is whole-frame only so far)",
-            });
-        }
         if !(0.0..MAX_GAIN).contains(&self.gain) {
             return Err(IspError::InvalidParameter {
                 name: "gain",
@@ -204,20 +207,39 @@ impl IspConfig<'_> {
     }
 
     /// Scratch elements either path needs for a `width` x `height` frame with this
-    /// configuration: [`scratch_len`] without distortion correction, `(14 + 3 * window) *
-    /// width` with it (see the module docs). With distortion on, this evaluates the lens model
-    /// at every pixel once.
+    /// configuration (the larger of [`FloatPipeline::scratch_len`] and
+    /// [`FixedPipeline::scratch_len`]): [`scratch_len`] for the streaming methods without
+    /// distortion correction, plus the directional method's ring buffers with it, plus `3 *
+    /// window * width` with distortion correction (see the module docs). With distortion on,
+    /// this evaluates the lens model at every pixel once.
     pub fn scratch_len(&self, width: usize, height: usize) -> Option<usize> {
-        engine_scratch_len(self.active_distortion(), width, height)
+        let directional = directional_len::<Fixed<u16>>(self.demosaic, width)?;
+        engine_scratch_len(self.active_distortion(), directional, width, height)
     }
+}
+
+/// Elements of a path's scratch (of type `A::T`) that hold the directional method's ring
+/// buffers (of type `A::E`, so an `i32` takes two `u16`, plus one for alignment), 0 for
+/// another method.
+fn directional_len<A: Arithmetic>(method: Method, width: usize) -> Option<usize> {
+    if method != Method::Directional {
+        return Some(0);
+    }
+    let planes = directional::scratch_len(width)?;
+    let (t, e) = (core::mem::size_of::<A::T>(), core::mem::size_of::<A::E>());
+    if t == e {
+        return Some(planes);
+    }
+    planes.checked_mul(e.div_ceil(t))?.checked_add(1)
 }
 
 fn engine_scratch_len(
     distortion: Option<&LensDistortion>,
+    directional: usize,
     width: usize,
     height: usize,
 ) -> Option<usize> {
-    let base = scratch_len(width)?;
+    let base = scratch_len(width)?.checked_add(directional)?;
     match distortion {
         None => Some(base),
         Some(d) => d
@@ -229,8 +251,9 @@ fn engine_scratch_len(
 }
 
 /// Scratch elements (`f32` for the float path, `u16` for the fixed path) either path needs for
-/// a frame `width` pixels wide without distortion correction: `14 * width`. With it, see
-/// [`IspConfig::scratch_len`].
+/// a frame `width` pixels wide with a streaming method (nearest, bilinear, MHC) and without
+/// distortion correction: `14 * width`. For the directional method or distortion correction,
+/// see [`IspConfig::scratch_len`].
 pub const fn scratch_len(width: usize) -> Option<usize> {
     width.checked_mul(MOSAIC_ROWS + 3 * RGB_ROWS)
 }
@@ -338,6 +361,11 @@ impl OutputSample for f32 {
 /// What differs between the float and the fixed path.
 trait Path {
     type P: Sample;
+    /// The directional method's arithmetic on this path's samples.
+    type Directional: Arithmetic<T = Self::P>;
+    /// The directional method's ring buffers in a part of this path's scratch
+    /// ([`directional_len`] elements).
+    fn directional_planes(part: &mut [Self::P]) -> &mut [<Self::Directional as Arithmetic>::E];
     fn method(&self) -> Method;
     fn dpc(&self) -> &DpcConfig<'_>;
     /// Distortion correction, if on.
@@ -387,7 +415,8 @@ impl<'a> FloatPipeline<'a> {
     /// Scratch elements [`FloatPipeline::run`] needs for a `width` x `height` frame (see
     /// [`IspConfig::scratch_len`]).
     pub fn scratch_len(&self, width: usize, height: usize) -> Option<usize> {
-        self.config.scratch_len(width, height)
+        let directional = directional_len::<Float<f32>>(self.config.demosaic, width)?;
+        engine_scratch_len(self.config.active_distortion(), directional, width, height)
     }
 
     /// Runs output rows `rows` of `raw` into `out` (exactly `rows.len()` rows of the frame's
@@ -448,6 +477,11 @@ impl FloatPipeline<'_> {
 
 impl Path for FloatPipeline<'_> {
     type P = f32;
+    type Directional = Float<f32>;
+
+    fn directional_planes(part: &mut [f32]) -> &mut [f32] {
+        part
+    }
 
     fn method(&self) -> Method {
         self.config.demosaic
@@ -514,10 +548,35 @@ impl Path for FloatPipeline<'_> {
 
     fn finish_row<O: OutputSample>(&self, rows: [&[f32]; 3], out: &mut [O]) {
         let c = &self.config;
+        let encode = |v: f32| {
+            if O::BITS == 8 {
+                // The exact curve's code, found among thresholds (srgb module).
+                O::from_code(u32::from(self.codes8.code(v)))
+            } else {
+                O::from_encoded(srgb::encode(v))
+            }
+        };
         // Every switch is decided once per row, so the loop holds only the stages that run.
         let denoise = c.denoise > 0.0;
         let ccm_on = c.ccm != IDENTITY;
         let tone_on = !(c.tone.saturation_is_identity() && c.tone.curve_is_identity());
+        if !denoise && !tone_on {
+            // The common camera pipeline: colour matrix (or none) and encoding, in a loop of
+            // its own: with the stages that call out in it, the pixel went through the stack
+            // in pieces and was read back whole, a store-forwarding stall per pixel.
+            let (row, pixels) = (rows[1], out.chunks_exact_mut(3));
+            if ccm_on {
+                for (px, rgb) in pixels.zip(row.chunks_exact(3)) {
+                    let lin = ccm::apply_f32(&c.ccm, [rgb[0], rgb[1], rgb[2]]);
+                    px.copy_from_slice(&lin.map(encode));
+                }
+            } else {
+                for (o, v) in out.iter_mut().zip(row) {
+                    *o = encode(*v);
+                }
+            }
+            return;
+        }
         for (x, px) in out.chunks_exact_mut(3).enumerate() {
             let rgb = if denoise {
                 denoise::pixel_f32(rows, x, c.denoise)
@@ -530,14 +589,7 @@ impl Path for FloatPipeline<'_> {
                 rgb
             };
             let lin = if tone_on { c.tone.apply(lin) } else { lin };
-            for (o, v) in px.iter_mut().zip(lin) {
-                *o = if O::BITS == 8 {
-                    // The exact curve's code, found among thresholds (srgb module).
-                    O::from_code(u32::from(self.codes8.code(v)))
-                } else {
-                    O::from_encoded(srgb::encode(v))
-                };
-            }
+            px.copy_from_slice(&lin.map(encode));
         }
     }
 }
@@ -591,7 +643,8 @@ impl<'a> FixedPipeline<'a> {
     /// Scratch elements [`FixedPipeline::run`] needs for a `width` x `height` frame (see
     /// [`IspConfig::scratch_len`]).
     pub fn scratch_len(&self, width: usize, height: usize) -> Option<usize> {
-        engine_scratch_len(self.distortion.as_ref(), width, height)
+        let directional = directional_len::<Fixed<u16>>(self.method, width)?;
+        engine_scratch_len(self.distortion.as_ref(), directional, width, height)
     }
 
     /// Runs output rows `rows` of `raw` into `out` (exactly `rows.len()` rows of the frame's
@@ -669,6 +722,12 @@ impl FixedPipeline<'_> {
 
 impl Path for FixedPipeline<'_> {
     type P = u16;
+    type Directional = Fixed<u16>;
+
+    fn directional_planes(part: &mut [u16]) -> &mut [i32] {
+        // The part holds one element more than the planes need, for the alignment.
+        bytemuck::pod_align_to_mut::<u16, i32>(part).1
+    }
 
     fn method(&self) -> Method {
         self.method
@@ -845,8 +904,12 @@ impl RowWindow {
 struct Engine<'s, 'p, A: Path> {
     path: &'p A,
     input: Input<'p>,
+    /// The streaming methods' prepared mosaic rows, tagged with the row each holds; the
+    /// directional method's prepared row, in its first row.
     mosaic_ring: &'s mut [A::P],
     mosaic_tags: [usize; MOSAIC_ROWS],
+    /// The directional method, when it runs (it keeps its own rows).
+    directional: Option<Stream<'s, A::Directional>>,
     /// Demosaiced RGB, `demosaic_slots` rows.
     demosaic_ring: &'s mut [A::P],
     demosaic_slots: usize,
@@ -860,6 +923,9 @@ impl<A: Path> Engine<'_, '_, A> {
         for range in self.demosaic_window.request(lo, hi, self.demosaic_slots) {
             for ry in range {
                 match self.input {
+                    Input::Mosaic(raw) if self.directional.is_some() => {
+                        self.directional_row(&raw, ry, w)?
+                    }
                     Input::Mosaic(raw) => self.demosaic_row(&raw, ry, w, h)?,
                     Input::Linear(frame) => self.linear_row(&frame, ry, w),
                 }
@@ -883,6 +949,64 @@ impl<A: Path> Engine<'_, '_, A> {
         }
     }
 
+    /// Row `my` of the raw frame through defect correction and the pointwise stages, into
+    /// `dst`.
+    fn prepare_row(path: &A, raw: &RawFrame<'_>, my: usize, dst: &mut [A::P]) {
+        let mut corrected = [0u16; CHUNK];
+        for x0 in (0..dst.len()).step_by(CHUNK) {
+            let n = CHUNK.min(dst.len() - x0);
+            dpc::correct_span(raw, path.dpc(), my, x0, &mut corrected[..n]);
+            path.mosaic_span(raw, my, x0, &corrected[..n], &mut dst[x0..x0 + n]);
+        }
+    }
+
+    /// Demosaiced row `ry` by the directional method: the stream continues if `ry` is the row
+    /// it writes next, else starts again at `ry` (reading the 12 rows above it first).
+    fn directional_row(&mut self, raw: &RawFrame<'_>, ry: usize, w: usize) -> Result<(), IspError> {
+        let Some(stream) = &mut self.directional else {
+            return Ok(());
+        };
+        if stream.next_output() != Some(ry) {
+            stream.restart(ry);
+        }
+        let slot = ry % self.demosaic_slots;
+        let out = &mut self.demosaic_ring[slot * 3 * w..(slot + 1) * 3 * w];
+        let prepared = &mut self.mosaic_ring[..w];
+        loop {
+            if stream.finished() {
+                // A restart at a frame row always reaches it; this is not reached.
+                return Err(IspError::InvalidParameter {
+                    name: "rows",
+                    allowed: "rows within the frame",
+                });
+            }
+            let read = stream.next_read();
+            if let Some(my) = read {
+                Self::prepare_row(self.path, raw, my, prepared);
+            }
+            let source = read.map(|_| &*prepared);
+            if stream.next_output() == Some(ry) {
+                stream.step(source, Some(&mut *out));
+                break;
+            }
+            stream.step(source, None);
+        }
+        if self.path.highlights_on() {
+            let y = ry as isize;
+            for (x, px) in out.chunks_exact_mut(3).enumerate() {
+                let x = x as isize;
+                let neighbourhood: [A::P; 9] = core::array::from_fn(|i| {
+                    stream.sample(y + i as isize / 3 - 1, x + i as isize % 3 - 1)
+                });
+                let rgb = self
+                    .path
+                    .highlights([px[0], px[1], px[2]], A::brightest(neighbourhood));
+                px.copy_from_slice(&rgb);
+            }
+        }
+        Ok(())
+    }
+
     fn demosaic_row(
         &mut self,
         raw: &RawFrame<'_>,
@@ -897,13 +1021,7 @@ impl<A: Path> Engine<'_, '_, A> {
                 continue;
             }
             let dst = &mut self.mosaic_ring[slot * w..(slot + 1) * w];
-            let mut corrected = [0u16; CHUNK];
-            for x0 in (0..w).step_by(CHUNK) {
-                let n = CHUNK.min(w - x0);
-                dpc::correct_span(raw, self.path.dpc(), my, x0, &mut corrected[..n]);
-                self.path
-                    .mosaic_span(raw, my, x0, &corrected[..n], &mut dst[x0..x0 + n]);
-            }
+            Self::prepare_row(self.path, raw, my, dst);
             self.mosaic_tags[slot] = my;
         }
         let ring: &[A::P] = self.mosaic_ring;
@@ -914,14 +1032,13 @@ impl<A: Path> Engine<'_, '_, A> {
         });
         let slot = ry % self.demosaic_slots;
         let out = &mut self.demosaic_ring[slot * 3 * w..(slot + 1) * 3 * w];
-        demosaic::row(
-            self.path.method(),
-            source,
-            ry,
-            h,
-            raw.mosaic().pattern(),
-            out,
-        )?;
+        // The directional method streams only frames at least 2 pixels wide and high; on
+        // thinner ones it is bilinear's line rule, as the whole-frame function is.
+        let method = match self.path.method() {
+            Method::Directional => Method::Bilinear,
+            other => other,
+        };
+        demosaic::row(method, source, ry, h, raw.mosaic().pattern(), out)?;
         if self.path.highlights_on() {
             let [up, mid, down] = [source[1], source[2], source[3]];
             for (x, px) in out.chunks_exact_mut(3).enumerate() {
@@ -974,7 +1091,13 @@ fn run_rows<A: Path, O: OutputSample>(
         name: "width",
         allowed: "a size that fits in memory",
     };
-    let base = scratch_len(w).ok_or(too_wide)?;
+    let directional_part = match input {
+        Input::Mosaic(_) => directional_len::<A::Directional>(path.method(), w).ok_or(too_wide)?,
+        Input::Linear(_) => 0,
+    };
+    let base = scratch_len(w)
+        .and_then(|b| b.checked_add(directional_part))
+        .ok_or(too_wide)?;
     if scratch.len() < base {
         return Err(IspError::BufferTooSmall {
             needed: base,
@@ -987,6 +1110,13 @@ fn run_rows<A: Path, O: OutputSample>(
     // Without distortion correction the demosaiced ring is denoise's window; with it, a ring
     // of corrected rows is, and the demosaiced ring takes all the scratch left.
     let (window_ring, rest) = rest.split_at_mut(RGB_ROWS * 3 * w);
+    let (planes, rest) = rest.split_at_mut(directional_part);
+    let directional = match input {
+        Input::Mosaic(raw) if directional_part > 0 => {
+            Stream::new(w, h, raw.mosaic().pattern(), A::directional_planes(planes))?
+        }
+        _ => None,
+    };
     let (demosaic_ring, demosaic_slots, corrected_ring): (_, _, &mut [A::P]) = match distortion {
         None => (window_ring, RGB_ROWS, &mut []),
         Some(_) => {
@@ -999,6 +1129,7 @@ fn run_rows<A: Path, O: OutputSample>(
         input,
         mosaic_ring,
         mosaic_tags: [usize::MAX; MOSAIC_ROWS],
+        directional,
         demosaic_ring,
         demosaic_slots,
         demosaic_window: RowWindow::default(),
@@ -1023,7 +1154,8 @@ fn run_rows<A: Path, O: OutputSample>(
                         let (s0, s1) = (*source.start(), *source.end());
                         if s1 - s0 + 1 > engine.demosaic_slots {
                             return Err(IspError::BufferTooSmall {
-                                needed: engine_scratch_len(Some(lens), w, h).ok_or(too_wide)?,
+                                needed: engine_scratch_len(Some(lens), directional_part, w, h)
+                                    .ok_or(too_wide)?,
                                 provided,
                             });
                         }

@@ -234,9 +234,8 @@ proptest! {
 
 /// The integer directional method tracks the float one: on the zone plate and a constant-hue
 /// ramp at 16 bits, every sample within 3 LSB and the mean difference under 0.5 LSB (measured:
-/// at most 2, mean 0.23 on the zone plate); at 8 bits every sample within 1 LSB. (On natural
-/// images a classifier sitting exactly between its two choices, as in clipped highlights, can
-/// tip either way, so single samples may differ more; see `directional_fixed`'s docs.)
+/// at most 2, mean 0.23 on the zone plate); at 8 bits every sample within 1 LSB. (Over the
+/// Kodak and McMaster sets: `isp_datasets.rs`.)
 #[test]
 fn directional_fixed_tracks_the_float_method() {
     let n = 96;

@@ -169,7 +169,7 @@ fn settings_strategy(w: usize, h: usize) -> impl Strategy<Value = Settings> {
             prop_oneof![Just(1.0f32), 0.0f32..2.0],
             prop_oneof![Just(1.0f32), 0.5f32..2.0],
             any::<bool>(),
-            0usize..3,
+            0usize..Method::ALL.len(),
             proptest::option::of(lens(w, h)),
             prop_oneof![Just(1.0f32), 0.3f32..1.0],
         ),
@@ -418,7 +418,7 @@ fn flat_field_stays_flat_through_every_stage() {
     let mut s = base.clone();
     s.wb = [1.9, 1.0, 1.4];
     variants.push(("wb", s));
-    for method in Method::STREAMING {
+    for method in Method::ALL {
         let mut s = base.clone();
         s.method = method;
         s.wb = [1.9, 1.0, 1.4];
@@ -475,7 +475,7 @@ fn flat_field_stays_flat_through_every_stage() {
 #[test]
 fn saturated_patch_stays_neutral_after_white_balance() {
     for pattern in CfaPattern::ALL {
-        for method in Method::STREAMING {
+        for method in Method::ALL {
             let (w, h) = (24, 20);
             let mut data = vec![0u16; w * h];
             for y in 0..h {

@@ -24,8 +24,10 @@
 //!    break on saturated, weakly correlated colour (McMaster).
 //! 4. **Classifiers on the mosaic** (horizontal/vertical and the two diagonals): a sum of
 //!    squared first and second differences along each direction, refined by the mean of the
-//!    four diagonal neighbours' where those are more decided. This statistic and steps 5-6
-//!    follow Luis Sanz Rodríguez's ratio corrected demosaicing (RCD), without its ratios.
+//!    four diagonal neighbours' where those are more decided (fading from one to the other
+//!    where both are about equally decided, so the method stays continuous). This statistic
+//!    and steps 5-6 follow Luis Sanz Rodríguez's ratio corrected demosaicing (RCD), without its
+//!    ratios and its hard switch.
 //! 5. **B at R and R at B**: colour differences from the four diagonal neighbours, weighted by
 //!    inverse gradients and steered by the diagonal classifier.
 //! 6. **R and B at G**: the same from the four cardinal neighbours (now all known), steered by
@@ -43,6 +45,11 @@
 //! and blue pixels, for instance) in a straight loop over slices, which vectorises. On x86-64,
 //! [`directional_avx2`] is the same code compiled for AVX2 (bit-identical output): 142 Mpix/s
 //! single-thread at 16 bits on the project's 2-core EPYC (`camsim bench demosaic`), 1.26x MHC.
+//!
+//! The schedule is a `Stream`: one step reads one padded row and writes one frame row once
+//! the stages have caught up. The whole-frame functions run it from the top; the pipeline
+//! ([`crate::pipeline`]) feeds it its prepared rows (after defect correction, black level and
+//! white balance) and starts it again wherever a band starts, 12 rows above it.
 
 use super::{reflect, same_size, Method};
 use crate::frame::{MosaicView, RgbViewMut, Sample};
@@ -50,14 +57,19 @@ use crate::{CfaColour, CfaPattern, IspError};
 
 mod fixed;
 pub use fixed::directional_fixed;
+pub(crate) use fixed::Fixed;
 
 /// Rows and columns of context outside the frame (even, so padded coordinates keep the
 /// frame's CFA parity).
 pub const HALO: usize = 12;
 /// Floor of the one-sided gradients, in units of full scale.
 const EPS: f32 = 1e-5;
-/// Keeps divisions by squared sums finite on flat fields.
-const TINY: f32 = 1e-20;
+/// Added to the gradient sums that weight the colour differences and classify the green
+/// estimate: one 16-bit step of full scale (the integer method's 4 units), so a sum that is
+/// off zero by rounding alone weighs as zero does, and the weights are continuous where a
+/// side is flat (with a bare `1 / s^2` a side at exactly zero took all the weight, one at
+/// 1e-9 almost none).
+const SUM_FLOOR: f32 = 1.0 / 65535.0;
 /// One-sided smoothing of the colour differences, centre first.
 const SMOOTH: [f32; 4] = [0.56, 0.35, 0.08, 0.01];
 /// [`SMOOTH`] in percent, for the integer method.
@@ -142,37 +154,226 @@ fn directional_body<T: Sample>(
     output: &mut RgbViewMut<'_, T>,
     scratch: &mut [f32],
 ) -> Result<(), IspError> {
+    whole_frame::<Float<T>>(input, output, scratch)
+}
+
+/// Runs a [`Stream`] over the whole frame: every padded row read once, every frame row written
+/// once.
+#[inline(always)]
+fn whole_frame<A: Arithmetic>(
+    input: &MosaicView<'_, A::T>,
+    output: &mut RgbViewMut<'_, A::T>,
+    scratch: &mut [A::E],
+) -> Result<(), IspError>
+where
+    A::T: Sample,
+{
     let Some(frame) = prepare(input, output, scratch.len())? else {
         return Ok(());
     };
     let mut p = Planes::split(scratch, frame.half * 2);
     let h = frame.h;
     for t in 0..schedule_len(h) {
-        let due = Due::at(t, h);
-        if let Some(r) = due.mosaic {
-            frame.read_row(input, r, &mut p.mosaic, T::to_unit);
-        }
-        if let Some(r) = due.diff {
-            frame.diff_row(r, &mut p);
-        }
-        if let Some(r) = due.grad_class {
-            frame.grad_row(r, &mut p);
-            frame.class_row(r, &mut p);
-        }
-        if let Some(r) = due.sum3 {
-            frame.sum3_row(r, &mut p);
-        }
-        if let Some(r) = due.green {
-            frame.green_row(r, &mut p);
-        }
-        if let Some(r) = due.chroma {
-            frame.chroma_row(r, &mut p);
-        }
-        if let Some(r) = due.output {
-            frame.output_row(r, &mut p, output.row_mut(r - HALO));
-        }
+        let due = Due::at(t, 0, h);
+        let source = due
+            .mosaic
+            .map(|r| input.row(reflect(r as isize - HALO as isize, h)));
+        let out = due.output.map(|r| output.row_mut(r - HALO));
+        step::<A>(&frame, &mut p, due, source, out);
     }
     Ok(())
+}
+
+/// Runs the stages `due` names: reads `source` (the frame row `due.mosaic` reflects) and
+/// writes `out` (frame row `due.output`).
+#[inline(always)]
+fn step<A: Arithmetic>(
+    frame: &Frame,
+    p: &mut Planes<'_, A::E>,
+    due: Due,
+    source: Option<&[A::T]>,
+    out: Option<&mut [A::T]>,
+) {
+    if let (Some(r), Some(source)) = (due.mosaic, source) {
+        frame.read_row(source, r, &mut p.mosaic, A::enter);
+    }
+    if let Some(r) = due.diff {
+        A::diff(frame, r, p);
+    }
+    if let Some(r) = due.grad_class {
+        frame.grad_row(r, p);
+        A::class(frame, r, p);
+    }
+    if let Some(r) = due.sum3 {
+        frame.sum3_row(r, p);
+    }
+    if let Some(r) = due.green {
+        A::green(frame, r, p);
+    }
+    if let Some(r) = due.chroma {
+        A::chroma(frame, r, p);
+    }
+    if let (Some(r), Some(out)) = (due.output, out) {
+        A::output(frame, r, p, out);
+    }
+}
+
+/// One version of the method's arithmetic: the working element its ring buffers hold, how
+/// samples enter and leave it, and the stages whose arithmetic differs (the gradient stages
+/// are shared, generic over [`Level`]). [`Float`] is the `f32` method, `fixed::Fixed` the
+/// integer one.
+pub(crate) trait Arithmetic {
+    /// The sample type in and out.
+    type T: Copy;
+    /// The working element.
+    type E: Copy + Level;
+    /// A sample on the working scale.
+    fn enter(v: Self::T) -> Self::E;
+    /// A working value back on the sample's scale (the exact inverse of `enter` on values it
+    /// made).
+    fn leave(v: Self::E) -> Self::T;
+    /// Stage 1.
+    fn diff(frame: &Frame, r: usize, p: &mut Planes<'_, Self::E>);
+    /// Stage 4's classifiers.
+    fn class(frame: &Frame, r: usize, p: &mut Planes<'_, Self::E>);
+    /// Stage 3.
+    fn green(frame: &Frame, r: usize, p: &mut Planes<'_, Self::E>);
+    /// Stage 5.
+    fn chroma(frame: &Frame, r: usize, p: &mut Planes<'_, Self::E>);
+    /// Stage 6 and the interleaved output row.
+    fn output(frame: &Frame, r: usize, p: &mut Planes<'_, Self::E>, out: &mut [Self::T]);
+}
+
+/// The `f32` method on samples of type `T`.
+pub(crate) struct Float<T>(core::marker::PhantomData<T>);
+
+impl<T: Sample> Arithmetic for Float<T> {
+    type T = T;
+    type E = f32;
+    #[inline(always)]
+    fn enter(v: T) -> f32 {
+        v.to_unit()
+    }
+    #[inline(always)]
+    fn leave(v: f32) -> T {
+        T::from_unit(v)
+    }
+    #[inline(always)]
+    fn diff(frame: &Frame, r: usize, p: &mut Planes<'_, f32>) {
+        frame.diff_row(r, p);
+    }
+    #[inline(always)]
+    fn class(frame: &Frame, r: usize, p: &mut Planes<'_, f32>) {
+        frame.class_row(r, p);
+    }
+    #[inline(always)]
+    fn green(frame: &Frame, r: usize, p: &mut Planes<'_, f32>) {
+        frame.green_row(r, p);
+    }
+    #[inline(always)]
+    fn chroma(frame: &Frame, r: usize, p: &mut Planes<'_, f32>) {
+        frame.chroma_row(r, p);
+    }
+    #[inline(always)]
+    fn output(frame: &Frame, r: usize, p: &mut Planes<'_, f32>, out: &mut [T]) {
+        frame.output_row(r, p, out);
+    }
+}
+
+/// The method as a stream of rows: each step reads one padded mosaic row (given by the
+/// caller) and, once the stages have caught up, writes one frame row. A stream started at
+/// frame row `y` ([`Stream::restart`]) first reads the 12 rows above `y` (reflected at the
+/// frame's top) and writes `y` first, and each row it writes equals the whole frame's: every
+/// stage skips the rows within its radius of the first row read, as the whole frame skips
+/// those within its radius of the padded top, so nothing is read that this run did not
+/// write. That is how the pipeline runs the method on any band.
+pub(crate) struct Stream<'s, A: Arithmetic> {
+    frame: Frame,
+    planes: Planes<'s, A::E>,
+    /// The padded row this run read first.
+    first: usize,
+    /// The padded row the next step reads (past the padded bottom once all are read).
+    next: usize,
+}
+
+impl<'s, A: Arithmetic> Stream<'s, A> {
+    /// A stream over `frame` that starts at the top, in `scratch` (checked by [`prepare`]).
+    #[inline(always)]
+    fn over(frame: Frame, scratch: &'s mut [A::E]) -> Self {
+        let stride = frame.half * 2;
+        Stream {
+            frame,
+            planes: Planes::split(scratch, stride),
+            first: 0,
+            next: 0,
+        }
+    }
+
+    /// A stream for a `width` x `height` mosaic of `pattern` in `scratch` (at least
+    /// [`scratch_len`]`(width)` elements); `None` when the frame is under 2 pixels wide or
+    /// high, which the method does not stream (it falls back to bilinear's line rule).
+    pub(crate) fn new(
+        width: usize,
+        height: usize,
+        pattern: CfaPattern,
+        scratch: &'s mut [A::E],
+    ) -> Result<Option<Self>, IspError> {
+        if width < 2 || height < 2 {
+            return Ok(None);
+        }
+        let frame = geometry(width, height, pattern, scratch.len())?;
+        Ok(Some(Self::over(frame, scratch)))
+    }
+
+    /// Starts again so that the next row written is frame row `y`.
+    pub(crate) fn restart(&mut self, y: usize) {
+        self.first = y;
+        self.next = y;
+    }
+
+    /// The schedule of the next step.
+    #[inline(always)]
+    fn due(&self) -> Due {
+        Due::at(self.next, self.first, self.frame.h)
+    }
+
+    /// Whether every frame row from the start has been written.
+    #[inline(always)]
+    pub(crate) fn finished(&self) -> bool {
+        self.next >= schedule_len(self.frame.h)
+    }
+
+    /// The frame row whose samples the next step reads, if it reads one.
+    #[inline(always)]
+    pub(crate) fn next_read(&self) -> Option<usize> {
+        let r = self.due().mosaic?;
+        Some(reflect(r as isize - HALO as isize, self.frame.h))
+    }
+
+    /// The frame row the next step writes, if it writes one.
+    #[inline(always)]
+    pub(crate) fn next_output(&self) -> Option<usize> {
+        self.due().output.map(|r| r - HALO)
+    }
+
+    /// Runs one step: reads `source` (the row [`Stream::next_read`] named) and writes `out`
+    /// (the interleaved row [`Stream::next_output`] named); either is ignored when the step
+    /// has no use for it.
+    #[inline(always)]
+    pub(crate) fn step(&mut self, source: Option<&[A::T]>, out: Option<&mut [A::T]>) {
+        let due = self.due();
+        step::<A>(&self.frame, &mut self.planes, due, source, out);
+        self.next += 1;
+    }
+
+    /// The sample the stream read at frame row `y`, column `x`, each within one of a row it
+    /// wrote last (reflected at the frame's edges): the mosaic around an output pixel, for the
+    /// pipeline's highlight stage.
+    #[inline(always)]
+    pub(crate) fn sample(&self, y: isize, x: isize) -> A::T {
+        let (r, c) = ((y + HALO as isize) as usize, (x + HALO as isize) as usize);
+        A::leave(self.planes.mosaic.row(r)[c / 2 + (c % 2) * self.frame.half])
+    }
 }
 
 /// [`directional`] compiled for x86-64 CPUs with AVX2: eight lanes per vector instead of
@@ -209,6 +410,16 @@ fn prepare<T: Sample>(
         super::demosaic(Method::Bilinear, input, output)?;
         return Ok(None);
     }
+    geometry(w, h, input.pattern(), scratch_len_given).map(Some)
+}
+
+/// The geometry of a `w` x `h` frame (both at least 2), checking the scratch length.
+fn geometry(
+    w: usize,
+    h: usize,
+    pattern: CfaPattern,
+    scratch_len_given: usize,
+) -> Result<Frame, IspError> {
     let too_wide = IspError::InvalidParameter {
         name: "width",
         allowed: "small enough that scratch_len(width) fits in usize",
@@ -221,13 +432,13 @@ fn prepare<T: Sample>(
             allowed: "at least scratch_len(width) samples",
         });
     }
-    Ok(Some(Frame {
+    Ok(Frame {
         w,
         h,
         pw: w + 2 * HALO,
         half: stride / 2,
-        pattern: input.pattern(),
-    }))
+        pattern,
+    })
 }
 
 /// Steps of the schedule for a frame `h` rows high: one per padded row read, plus the output
@@ -252,12 +463,13 @@ struct Due {
 }
 
 impl Due {
+    /// Step `t` (the padded row it reads) of a run that read padded row `first` first.
     #[inline(always)]
-    fn at(t: usize, h: usize) -> Due {
+    fn at(t: usize, first: usize, h: usize) -> Due {
         let rows = h + 2 * HALO;
         let valid = |lag: usize, radius: usize| {
             t.checked_sub(lag)
-                .filter(|r| *r >= radius && *r + radius < rows)
+                .filter(|r| *r >= first + radius && *r + radius < rows)
         };
         Due {
             mosaic: (t < rows).then_some(t),
@@ -266,7 +478,9 @@ impl Due {
             sum3: valid(4, 4),
             green: valid(6, 6),
             chroma: valid(8, 8),
-            output: t.checked_sub(11).filter(|r| (HALO..HALO + h).contains(r)),
+            output: t
+                .checked_sub(11)
+                .filter(|r| *r >= first + HALO && *r < HALO + h),
         }
     }
 }
@@ -301,7 +515,7 @@ impl<E> Ring<'_, E> {
 }
 
 /// The ring buffers, of `f32` in [`directional`] and of `i32` in [`directional_fixed`].
-struct Planes<'a, E> {
+pub(crate) struct Planes<'a, E> {
     mosaic: Ring<'a, E>,
     diff_h: Ring<'a, E>,
     diff_v: Ring<'a, E>,
@@ -353,7 +567,8 @@ impl<'a, E> Planes<'a, E> {
 }
 
 /// The frame's geometry in padded coordinates (`HALO` added on every side).
-struct Frame {
+#[derive(Clone, Copy)]
+pub(crate) struct Frame {
     w: usize,
     h: usize,
     pw: usize,
@@ -454,16 +669,24 @@ fn clamp01(v: f32) -> f32 {
     v.max(0.0).min(1.0)
 }
 
+/// Half the width of the band of decidedness over which [`refined`] fades from the
+/// neighbourhood's classifier to the pixel's own (1/64, exact in `f32` and Q16).
+const FADE: f32 = 1.0 / 64.0;
+
 /// A classifier refined by its neighbourhood: its own value `own` if it is more decided
-/// (further from 0.5) than the mean of its four diagonal neighbours `diagonal`, else that mean.
+/// (further from 0.5) than the mean of its four diagonal neighbours `diagonal`, else that
+/// mean, with a linear fade between the two where they are within [`FADE`] of equally
+/// decided. RCD switches hard; but where the two are equally decided in opposite directions a
+/// hard switch turns a difference in the last bit (of the input's rounding, or between the
+/// float and integer arithmetic) into the other direction's estimate, hundreds of 16-bit LSB
+/// away. The fade keeps the method continuous, so the integer method tracks this one.
 #[inline(always)]
 fn refined(own: f32, diagonal: [f32; 4]) -> f32 {
     let around = 0.25 * (diagonal[0] + diagonal[1] + diagonal[2] + diagonal[3]);
-    if (0.5 - own).abs() < (0.5 - around).abs() {
-        around
-    } else {
-        own
-    }
+    // How much more decided `own` is: 1 keeps it, 0 takes `around`.
+    let lead = (0.5 - own).abs() - (0.5 - around).abs();
+    let keep = clamp01((lead + FADE) * (0.5 / FADE));
+    around + keep * (own - around)
 }
 
 /// Sum of squared first and second differences along a line of seven samples `v[0..7]`
@@ -489,7 +712,9 @@ fn pair_estimate(x: [f32; 4], g: [f32; 5]) -> f32 {
 }
 
 /// A working sample of either method: what the stages both methods share need of it.
-trait Level: Copy + core::ops::Add<Output = Self> + core::ops::Sub<Output = Self> {
+pub(crate) trait Level:
+    Copy + core::ops::Add<Output = Self> + core::ops::Sub<Output = Self>
+{
     /// `|self - other|`.
     fn distance(self, other: Self) -> Self;
 }
@@ -696,17 +921,18 @@ impl Frame {
         span.out(green).copy_from_slice(span.tap(g, 0));
     }
 
-    /// Reads padded row `r` of the mosaic (reflected at the frame's edges) into `ring`,
-    /// converting each sample with `convert`.
+    /// Stores `src`, the frame row padded row `r` reflects (the caller reads it), as padded
+    /// row `r` of `ring`, reflected at the frame's left and right and converting each sample
+    /// with `convert`.
     #[inline(always)]
-    fn read_row<T: Sample, E: Copy, F: Fn(T) -> E>(
+    fn read_row<T: Copy, E: Copy, F: Fn(T) -> E>(
         &self,
-        input: &MosaicView<'_, T>,
+        src: &[T],
         r: usize,
         ring: &mut Ring<'_, E>,
         convert: F,
     ) {
-        let src = input.row(reflect(r as isize - HALO as isize, self.h));
+        let src = &src[..self.w];
         let dst = ring.row_mut(r);
         let (even, odd) = dst.split_at_mut(self.half);
         let pairs = src.chunks_exact(2);
@@ -848,13 +1074,17 @@ impl Frame {
             let se = s3h[2][i] + s3h[3][i] + s3h[4][i];
             let box_v = sn + ss - s3v[2][i];
             let box_h = sw + se - s3h[2][i];
-            let (sv, sh) = (box_v * box_v + TINY, box_h * box_h + TINY);
-            let class = sv / (sv + sh);
+            let inverse_square = |s: f32| {
+                let s = s + SUM_FLOOR;
+                1.0 / (s * s)
+            };
+            let (sv, sh) = (box_v + SUM_FLOOR, box_h + SUM_FLOOR);
+            let class = sv * sv / (sv * sv + sh * sh);
             let (wn, ws, ww, we) = (
-                1.0 / (sn * sn + TINY),
-                1.0 / (ss * ss + TINY),
-                1.0 / (sw * sw + TINY),
-                1.0 / (se * se + TINY),
+                inverse_square(sn),
+                inverse_square(ss),
+                inverse_square(sw),
+                inverse_square(se),
             );
             let mut dn = 0.0;
             let mut ds = 0.0;

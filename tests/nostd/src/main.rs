@@ -108,8 +108,8 @@ fn directional_runs() -> bool {
     directional_fixed(&mosaic, &mut out, &mut scratch).is_ok() && rgb.iter().all(|v| *v == 1000)
 }
 
-/// The whole fixed-point ISP on a flat 8x4 frame in stack buffers, without and with distortion
-/// correction: 0.5 linear is sRGB 188.
+/// The whole fixed-point ISP on a flat 8x4 frame in stack buffers, with MHC, with the
+/// directional method and with distortion correction: 0.5 linear is sRGB 188.
 fn pipeline_runs() -> bool {
     use isp_core::frame::{RawFrame, RgbViewMut};
     use isp_core::pipeline::{FixedPipeline, IspConfig};
@@ -127,6 +127,34 @@ fn pipeline_runs() -> bool {
         return false;
     };
     let mut scratch = [0u16; 14 * 8];
+    let mut rgb = [0u8; 96];
+    let Ok(mut out) = RgbViewMut::new(&mut rgb, 8, 4, 24) else {
+        return false;
+    };
+    if !(pipeline.run(&raw, 0..4, &mut scratch, &mut out).is_ok() && rgb.iter().all(|v| *v == 188))
+    {
+        return false;
+    }
+    // Again with the directional method (its integer version; its rings take two u16 per
+    // i32, plus one for alignment).
+    const DIRECTIONAL: usize = match isp_core::demosaic::directional::scratch_len(8) {
+        Some(n) => 14 * 8 + 2 * n + 1,
+        None => 0,
+    };
+    let directional = IspConfig {
+        demosaic: isp_core::demosaic::Method::Directional,
+        ..config
+    };
+    let Ok(pipeline) = FixedPipeline::new(&directional, 8) else {
+        return false;
+    };
+    if directional
+        .scratch_len(8, 4)
+        .is_none_or(|n| n > DIRECTIONAL)
+    {
+        return false;
+    }
+    let mut scratch = [0u16; DIRECTIONAL];
     let mut rgb = [0u8; 96];
     let Ok(mut out) = RgbViewMut::new(&mut rgb, 8, 4, 24) else {
         return false;

@@ -87,7 +87,7 @@ impl From<AwbArg> for AwbMethod {
     }
 }
 
-/// A demosaicing method the streaming pipeline runs.
+/// A demosaicing method of the pipeline.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum PipelineDemosaicArg {
     /// 2x2 superpixel.
@@ -96,6 +96,8 @@ pub enum PipelineDemosaicArg {
     Bilinear,
     /// Malvar-He-Cutler.
     Mhc,
+    /// The high-quality directional method (the fixed path runs its integer version).
+    Directional,
 }
 
 impl From<PipelineDemosaicArg> for Method {
@@ -104,6 +106,7 @@ impl From<PipelineDemosaicArg> for Method {
             PipelineDemosaicArg::Nearest => Method::Nearest,
             PipelineDemosaicArg::Bilinear => Method::Bilinear,
             PipelineDemosaicArg::Mhc => Method::Mhc,
+            PipelineDemosaicArg::Directional => Method::Directional,
         }
     }
 }
@@ -252,8 +255,11 @@ mod tests {
         }
         for v in PipelineDemosaicArg::value_variants() {
             assert_eq!(name(v), Method::from(*v).name());
-            assert!(Method::from(*v).streams());
         }
+        assert_eq!(
+            PipelineDemosaicArg::value_variants().len(),
+            Method::ALL.len()
+        );
         for v in CropArg::value_variants() {
             assert_eq!(name(v), CropChoice::from(*v).name());
         }

@@ -70,8 +70,7 @@ pub struct ProcessingArgs {
     /// Colour matrix, camera RGB to linear sRGB: nine numbers row by row [default: identity].
     #[arg(long, allow_hyphen_values = true)]
     pub ccm: Option<String>,
-    /// Demosaicing [default: bilinear] (directional is whole-frame only so far: `camsim
-    /// demosaic`).
+    /// Demosaicing [default: bilinear]; directional is the best and the slowest.
     #[arg(long, value_enum)]
     pub demosaic: Option<PipelineDemosaicArg>,
     /// Lens distortion to correct: k1,k2,p1,p2 or k1,k2,p1,p2,k3 (OpenCV's order) [default: off].
