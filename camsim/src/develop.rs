@@ -445,6 +445,7 @@ pub fn with_prepared<R>(
         highlight_knee: options.highlight_knee.unwrap_or(DEFAULT_HIGHLIGHT_KNEE),
         ccm,
         tone: options.look.unwrap_or(Look::Neutral).tone(),
+        sharpen: options.sharpen.unwrap_or(0.0),
     };
     config.validate()?;
     let fixed = options.fixed.unwrap_or(false);
@@ -574,6 +575,8 @@ pub fn execute(
     ));
     c.tone = config.tone;
     steps.push(("tone", config.tone != Look::Neutral.tone(), true, c));
+    c.sharpen = config.sharpen;
+    steps.push(("sharpening", config.sharpen > 0.0, true, c));
     steps.retain(|s| s.1);
     let mut stages = vec!["black level"];
     stages.extend(steps[1..].iter().filter(|s| !s.2).map(|s| s.0));
@@ -582,8 +585,12 @@ pub fn execute(
     } else {
         demosaic.name()
     });
-    stages.extend(steps[1..].iter().filter(|s| s.2).map(|s| s.0));
+    let before_encoding = |s: &&(&str, bool, bool, IspConfig)| s.2 && s.0 != "sharpening";
+    stages.extend(steps[1..].iter().filter(before_encoding).map(|s| s.0));
     stages.push("sRGB encode");
+    if config.sharpen > 0.0 {
+        stages.push("sharpening");
+    }
     let mut stage_ms = Vec::new();
     if run.stage_times {
         let mut previous = 0.0;

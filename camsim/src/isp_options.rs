@@ -14,6 +14,7 @@
 //! demosaic = "mhc"
 //! denoise = 0.02
 //! highlight-knee = 0.9             # clipped colour fades to neutral above it; 1 is off
+//! sharpen = 0.5                    # unsharp mask on luma, [0, 4]; 0 is off
 //! dpc-threshold = 400
 //! defects = [[10, 20], [11, 20]]   # static defective pixels, [x, y]
 //! look = "vivid"
@@ -194,6 +195,8 @@ pub struct IspOptions {
     pub baseline_exposure: Option<bool>,
     /// Highlight knee in `[0, 1]` (1 is off): colour fades to neutral above it.
     pub highlight_knee: Option<f32>,
+    /// Sharpening amount in `[0, 4]` (0 is off): an unsharp mask on luma after encoding.
+    pub sharpen: Option<f32>,
 }
 
 /// Which part of the raw's active area the developed image shows.
@@ -241,6 +244,7 @@ impl IspOptions {
             crop: self.crop.or(fallback.crop),
             baseline_exposure: self.baseline_exposure.or(fallback.baseline_exposure),
             highlight_knee: self.highlight_knee.or(fallback.highlight_knee),
+            sharpen: self.sharpen.or(fallback.sharpen),
         }
     }
 }
@@ -360,7 +364,7 @@ pub fn camera_matrix(values: Vec<f64>, what: &str) -> Result<[f64; 4]> {
 }
 
 /// The file's keys, each the name of a flag (or a table the command line has no flag for).
-const KEYS: [&str; 21] = [
+const KEYS: [&str; 22] = [
     "pattern",
     "bits",
     "black-level",
@@ -382,6 +386,7 @@ const KEYS: [&str; 21] = [
     "crop",
     "baseline-exposure",
     "highlight-knee",
+    "sharpen",
 ];
 
 /// One value of the file, with where it is for error messages.
@@ -544,6 +549,7 @@ pub fn from_toml(text: &str, file: &Path) -> Result<IspOptions> {
             "crop" => options.crop = Some(f.check(crop(f.string()?, key))?),
             "baseline-exposure" => options.baseline_exposure = Some(f.boolean()?),
             "highlight-knee" => options.highlight_knee = Some(f.scalar()? as f32),
+            "sharpen" => options.sharpen = Some(f.scalar()? as f32),
             other => {
                 return Err(f.error(format!(
                     "unknown key {other:?}; known keys: {}",

@@ -17,13 +17,19 @@
 //! rgb  = denoise(rgb)                               identity at strength 0
 //! lin  = clamp(CCM * rgb, 0, 1)
 //! lin  = tone(lin)                                  saturation, contrast, curve (tone module)
-//! out  = round(255 * srgb_oetf(lin))                or 65535 for 16-bit; f32 output unrounded
+//! e    = srgb_oetf(lin)
+//! e_c  = clamp(e_c + s * (Y - blur(Y)), 0, 1)      sharpening, off (s = 0) by default
+//! out  = round(255 * e)                             or 65535 for 16-bit; f32 output unrounded
 //! ```
 //!
 //! in `f32`, with `lsc` the bilinear interpolation of the Q4.12 grid (exactly `q / 4096` per
 //! node), `undistort` the 1/32-pixel bilinear resampling of [`crate::distortion`] (OpenCV's
 //! `cv2.undistort`, black where the lens saw nothing), and `srgb_oetf` the exact IEC 61966-2-1
-//! curve ([`crate::srgb::encode`]). Each stage that is off (no defects, no grid, gain 1, gains
+//! curve ([`crate::srgb::encode`]). Sharpening is an unsharp mask on luma in the encoded
+//! domain (where ISPs sharpen, so the overshoot is even to the eye): `Y = 0.2126 e_r + 0.7152
+//! e_g + 0.0722 e_b` (Rec. 709 luma), `blur` the 3x3 binomial kernel `[1 2 1]^T [1 2 1] / 16`
+//! over it with reflect-101 borders, and the same luma detail added to each channel, so hue
+//! is kept. Each stage that is off (no defects, no grid, gain 1, gains
 //! 1, no distortion, strength 0, identity matrix, neutral tone) is skipped, and skipping it
 //! changes nothing.
 //!
@@ -43,7 +49,9 @@
 //! absolute one); demosaicing with the integer kernels;
 //! distortion correction with the same source positions and integer weights over 1024; denoise
 //! with Q12 range weights; the CCM in signed Q4.16; saturation as a Q16 matrix; contrast and
-//! curve through [`ToneLut`]; encoding through [`EncodeLut`]. Every step rounds to nearest and
+//! curve through [`ToneLut`]; encoding through [`EncodeLut`] (at 16 bits first when
+//! sharpening, which then runs on 16-bit codes with Q16 luma weights and a Q12 amount, and
+//! reduces to the output depth last). Every step rounds to nearest and
 //! saturates. Its 8-bit output is within 1 LSB of the float path on at least 99.9% of pixels
 //! and 2 LSB everywhere (tested over Kodak and McMaster as 12-bit raw and over random frames).
 //!
@@ -121,6 +129,16 @@ pub const SATURATION_FRAC_BITS: u32 = 16;
 const MOSAIC_ROWS: usize = 5;
 /// Rows of demosaiced RGB the ring holds (the denoise window).
 const RGB_ROWS: usize = 3;
+/// Rows of encoded RGB the sharpening ring holds (its window).
+const SHARPEN_ROWS: usize = 3;
+/// Largest sharpening amount.
+pub const MAX_SHARPEN: f32 = 4.0;
+/// Rec. 709 luma weights of the sharpening stage.
+const LUMA: [f32; 3] = [0.2126, 0.7152, 0.0722];
+/// [`LUMA`] in Q16, summing to 65536.
+const LUMA_Q16: [u32; 3] = [13933, 46871, 4732];
+/// Fractional bits of the fixed path's sharpening amount.
+const SHARPEN_FRAC_BITS: u32 = 12;
 /// Raw samples defect correction handles per chunk (a stack buffer, so the float path needs no
 /// `u16` scratch).
 const CHUNK: usize = 256;
@@ -152,6 +170,9 @@ pub struct IspConfig<'a> {
     pub ccm: [[f32; 3]; 3],
     /// Photo-finishing.
     pub tone: Tone,
+    /// Sharpening: the amount of an unsharp mask on luma after encoding, `[0, 4]` (0 is off;
+    /// 1 adds the luma's full difference from its 3x3 blur).
+    pub sharpen: f32,
 }
 
 /// The identity matrix.
@@ -170,6 +191,7 @@ impl Default for IspConfig<'_> {
             highlight_knee: 1.0,
             ccm: IDENTITY,
             tone: Tone::default(),
+            sharpen: 0.0,
         }
     }
 }
@@ -197,6 +219,12 @@ impl IspConfig<'_> {
                 allowed: "[0, 1] (1 is off)",
             });
         }
+        if !(0.0..=MAX_SHARPEN).contains(&self.sharpen) {
+            return Err(IspError::InvalidParameter {
+                name: "sharpen",
+                allowed: "[0, 4] (0 is off)",
+            });
+        }
         ccm::validate(&self.ccm)?;
         self.tone.validate()
     }
@@ -209,13 +237,25 @@ impl IspConfig<'_> {
     /// Scratch elements either path needs for a `width` x `height` frame with this
     /// configuration (the larger of [`FloatPipeline::scratch_len`] and
     /// [`FixedPipeline::scratch_len`]): [`scratch_len`] for the streaming methods without
-    /// distortion correction, plus the directional method's ring buffers with it, plus `3 *
-    /// window * width` with distortion correction (see the module docs). With distortion on,
+    /// distortion correction, plus the directional method's ring buffers with it, plus `9 *
+    /// width` with sharpening, plus `3 * window * width` with distortion correction (see the
+    /// module docs). With distortion on,
     /// this evaluates the lens model at every pixel once.
     pub fn scratch_len(&self, width: usize, height: usize) -> Option<usize> {
-        let directional = directional_len::<Fixed<u16>>(self.demosaic, width)?;
-        engine_scratch_len(self.active_distortion(), directional, width, height)
+        let extra = extra_len::<Fixed<u16>>(self.demosaic, self.sharpen > 0.0, width)?;
+        engine_scratch_len(self.active_distortion(), extra, width, height)
     }
+}
+
+/// Elements of a path's scratch beyond [`scratch_len`] for the directional method's rings and
+/// the sharpening rows.
+fn extra_len<A: Arithmetic>(method: Method, sharpen: bool, width: usize) -> Option<usize> {
+    let sharpen_rows = if sharpen {
+        width.checked_mul(3 * SHARPEN_ROWS)?
+    } else {
+        0
+    };
+    directional_len::<A>(method, width)?.checked_add(sharpen_rows)
 }
 
 /// Elements of a path's scratch (of type `A::T`) that hold the directional method's ring
@@ -235,11 +275,11 @@ fn directional_len<A: Arithmetic>(method: Method, width: usize) -> Option<usize>
 
 fn engine_scratch_len(
     distortion: Option<&LensDistortion>,
-    directional: usize,
+    extra: usize,
     width: usize,
     height: usize,
 ) -> Option<usize> {
-    let base = scratch_len(width)?.checked_add(directional)?;
+    let base = scratch_len(width)?.checked_add(extra)?;
     match distortion {
         None => Some(base),
         Some(d) => d
@@ -392,6 +432,45 @@ trait Path {
     /// Denoise (or pass through) the middle row of `rows`, then CCM, tone and encoding, into
     /// `out` (a row of the output).
     fn finish_row<O: OutputSample>(&self, rows: [&[Self::P]; 3], out: &mut [O]);
+    /// Whether the sharpening stage is on.
+    fn sharpen_on(&self) -> bool;
+    /// As [`Path::finish_row`] up to the encoding, into `out` in this path's encoded domain
+    /// (`f32` in `[0, 1]`, 16-bit codes), for the sharpening stage.
+    fn encoded_row(&self, rows: [&[Self::P]; 3], out: &mut [Self::P]);
+    /// Sharpens the middle row of `rows` (encoded, [`Path::encoded_row`]) into `out`.
+    fn sharpen_row<O: OutputSample>(&self, rows: [&[Self::P]; 3], out: &mut [O]);
+}
+
+/// Walks the middle row of three encoded rows for the sharpening stage: `emit(x, pixel,
+/// luma, blurred)` with `blurred` the luma's 3x3 binomial sum around it (16 times the blur:
+/// weights 1 2 1 in each direction), reflect-101 at the frame's edges (the caller reflects
+/// the rows).
+#[inline(always)]
+fn sharpen_pixels<V: Copy, L: Copy + core::ops::Add<Output = L>>(
+    rows: [&[V]; 3],
+    luma: impl Fn([V; 3]) -> L,
+    mut emit: impl FnMut(usize, [V; 3], L, L),
+) {
+    let w = rows[1].len() / 3;
+    if w == 0 {
+        return;
+    }
+    let pixel = |row: &[V], x: usize| [row[3 * x], row[3 * x + 1], row[3 * x + 2]];
+    // The luma of rows -1, 0, 1 at column x, weighted 1 2 1.
+    let column = |x: usize| {
+        let mid = luma(pixel(rows[1], x));
+        luma(pixel(rows[0], x)) + mid + mid + luma(pixel(rows[2], x))
+    };
+    // Columns x - 1, x and x + 1, slid along the row.
+    let mut window = [column(reflect(-1, w)), column(0), column(reflect(1, w))];
+    for x in 0..w {
+        if x > 0 {
+            window = [window[1], window[2], column(reflect(x as isize + 1, w))];
+        }
+        let centre = pixel(rows[1], x);
+        let blurred = window[0] + window[1] + window[1] + window[2];
+        emit(x, centre, luma(centre), blurred);
+    }
 }
 
 /// The float reference path.
@@ -415,8 +494,9 @@ impl<'a> FloatPipeline<'a> {
     /// Scratch elements [`FloatPipeline::run`] needs for a `width` x `height` frame (see
     /// [`IspConfig::scratch_len`]).
     pub fn scratch_len(&self, width: usize, height: usize) -> Option<usize> {
-        let directional = directional_len::<Float<f32>>(self.config.demosaic, width)?;
-        engine_scratch_len(self.config.active_distortion(), directional, width, height)
+        let c = &self.config;
+        let extra = extra_len::<Float<f32>>(c.demosaic, c.sharpen > 0.0, width)?;
+        engine_scratch_len(c.active_distortion(), extra, width, height)
     }
 
     /// Runs output rows `rows` of `raw` into `out` (exactly `rows.len()` rows of the frame's
@@ -568,7 +648,9 @@ impl Path for FloatPipeline<'_> {
             if ccm_on {
                 for (px, rgb) in pixels.zip(row.chunks_exact(3)) {
                     let lin = ccm::apply_f32(&c.ccm, [rgb[0], rgb[1], rgb[2]]);
-                    px.copy_from_slice(&lin.map(encode));
+                    for (o, v) in px.iter_mut().zip(lin) {
+                        *o = encode(v);
+                    }
                 }
             } else {
                 for (o, v) in out.iter_mut().zip(row) {
@@ -578,18 +660,55 @@ impl Path for FloatPipeline<'_> {
             return;
         }
         for (x, px) in out.chunks_exact_mut(3).enumerate() {
-            let rgb = if denoise {
-                denoise::pixel_f32(rows, x, c.denoise)
-            } else {
-                [rows[1][3 * x], rows[1][3 * x + 1], rows[1][3 * x + 2]]
-            };
-            let lin = if ccm_on {
-                ccm::apply_f32(&c.ccm, rgb)
-            } else {
-                rgb
-            };
-            let lin = if tone_on { c.tone.apply(lin) } else { lin };
-            px.copy_from_slice(&lin.map(encode));
+            for (o, v) in px.iter_mut().zip(self.linear_pixel(rows, x)) {
+                *o = encode(v);
+            }
+        }
+    }
+
+    fn sharpen_on(&self) -> bool {
+        self.config.sharpen > 0.0
+    }
+
+    fn encoded_row(&self, rows: [&[f32]; 3], out: &mut [f32]) {
+        for (x, px) in out.chunks_exact_mut(3).enumerate() {
+            for (o, v) in px.iter_mut().zip(self.linear_pixel(rows, x)) {
+                *o = srgb::encode(v);
+            }
+        }
+    }
+
+    fn sharpen_row<O: OutputSample>(&self, rows: [&[f32]; 3], out: &mut [O]) {
+        let amount = self.config.sharpen;
+        let luma = |p: [f32; 3]| LUMA[0] * p[0] + LUMA[1] * p[1] + LUMA[2] * p[2];
+        sharpen_pixels(rows, luma, |x, e, y, blurred| {
+            let detail = amount * (y - blurred * (1.0 / 16.0));
+            for (o, v) in out[3 * x..3 * x + 3].iter_mut().zip(e) {
+                *o = O::from_encoded((v + detail).clamp(0.0, 1.0));
+            }
+        });
+    }
+}
+
+impl FloatPipeline<'_> {
+    /// Denoise (or the pixel itself), CCM and tone at pixel `x` of the middle row of `rows`.
+    #[inline]
+    fn linear_pixel(&self, rows: [&[f32]; 3], x: usize) -> [f32; 3] {
+        let c = &self.config;
+        let rgb = if c.denoise > 0.0 {
+            denoise::pixel_f32(rows, x, c.denoise)
+        } else {
+            [rows[1][3 * x], rows[1][3 * x + 1], rows[1][3 * x + 2]]
+        };
+        let lin = if c.ccm != IDENTITY {
+            ccm::apply_f32(&c.ccm, rgb)
+        } else {
+            rgb
+        };
+        if c.tone.saturation_is_identity() && c.tone.curve_is_identity() {
+            lin
+        } else {
+            c.tone.apply(lin)
         }
     }
 }
@@ -609,6 +728,8 @@ pub struct FixedPipeline<'a> {
     saturation_q: Option<[[i32; 3]; 3]>,
     tone_lut: Option<ToneLut>,
     encode: EncodeLut,
+    /// The sharpening amount in Q12 and the 16-bit encoding it runs on, when it is on.
+    sharpen_q12: Option<(i64, EncodeLut)>,
 }
 
 fn to_q16(v: f32) -> u64 {
@@ -637,14 +758,21 @@ impl<'a> FixedPipeline<'a> {
                 .then(|| ccm::quantise(&config.tone.saturation_matrix(), SATURATION_FRAC_BITS)),
             tone_lut: (!config.tone.curve_is_identity()).then(|| ToneLut::new(&config.tone)),
             encode: EncodeLut::new(out_bits)?,
+            sharpen_q12: match config.sharpen > 0.0 {
+                true => Some((
+                    (f64::from(config.sharpen) * f64::from(1u32 << SHARPEN_FRAC_BITS) + 0.5) as i64,
+                    EncodeLut::new(16)?,
+                )),
+                false => None,
+            },
         })
     }
 
     /// Scratch elements [`FixedPipeline::run`] needs for a `width` x `height` frame (see
     /// [`IspConfig::scratch_len`]).
     pub fn scratch_len(&self, width: usize, height: usize) -> Option<usize> {
-        let directional = directional_len::<Fixed<u16>>(self.method, width)?;
-        engine_scratch_len(self.distortion.as_ref(), directional, width, height)
+        let extra = extra_len::<Fixed<u16>>(self.method, self.sharpen_q12.is_some(), width)?;
+        engine_scratch_len(self.distortion.as_ref(), extra, width, height)
     }
 
     /// Runs output rows `rows` of `raw` into `out` (exactly `rows.len()` rows of the frame's
@@ -830,7 +958,9 @@ impl Path for FixedPipeline<'_> {
                 Some(m) => {
                     for (px, rgb) in pixels.zip(row.chunks_exact(3)) {
                         let lin = ccm::apply_u16(m, CCM_FRAC_BITS, [rgb[0], rgb[1], rgb[2]]);
-                        px.copy_from_slice(&lin.map(encode));
+                        for (o, v) in px.iter_mut().zip(lin) {
+                            *o = encode(v);
+                        }
                     }
                 }
                 None => {
@@ -842,21 +972,75 @@ impl Path for FixedPipeline<'_> {
             return;
         }
         for (x, px) in out.chunks_exact_mut(3).enumerate() {
-            let mut lin = match self.inverse_denoise {
-                Some(inv) => denoise::pixel_u16(rows, x, inv),
-                None => [rows[1][3 * x], rows[1][3 * x + 1], rows[1][3 * x + 2]],
-            };
-            if let Some(m) = &self.ccm_q {
-                lin = ccm::apply_u16(m, CCM_FRAC_BITS, lin);
+            let lin = self.linear_pixel(rows, x);
+            for (o, v) in px.iter_mut().zip(lin) {
+                *o = O::from_code(self.encode.lookup(v));
             }
-            if let Some(m) = &self.saturation_q {
-                lin = ccm::apply_u16(m, SATURATION_FRAC_BITS, lin);
-            }
-            if let Some(lut) = &self.tone_lut {
-                lin = lin.map(|v| lut.lookup(v));
-            }
-            px.copy_from_slice(&lin.map(|v| O::from_code(self.encode.lookup(v))));
         }
+    }
+
+    fn sharpen_on(&self) -> bool {
+        self.sharpen_q12.is_some()
+    }
+
+    fn encoded_row(&self, rows: [&[u16]; 3], out: &mut [u16]) {
+        let Some((_, encode16)) = &self.sharpen_q12 else {
+            return;
+        };
+        for (x, px) in out.chunks_exact_mut(3).enumerate() {
+            let lin = self.linear_pixel(rows, x);
+            // Codes of a 16-bit table fit u16.
+            for (o, v) in px.iter_mut().zip(lin) {
+                *o = encode16.lookup(v) as u16;
+            }
+        }
+    }
+
+    fn sharpen_row<O: OutputSample>(&self, rows: [&[u16]; 3], out: &mut [O]) {
+        let Some((amount, _)) = self.sharpen_q12 else {
+            return;
+        };
+        // Luma < 2^16, so the column sums (x4) and the blur sums (x16) fit u32.
+        let luma = |p: [u16; 3]| {
+            (LUMA_Q16[0] * u32::from(p[0])
+                + LUMA_Q16[1] * u32::from(p[1])
+                + LUMA_Q16[2] * u32::from(p[2])
+                + (1 << 15))
+                >> 16
+        };
+        let to_output = |v: i64| match O::BITS {
+            8 => O::from_code(((v * 255 + 32767) / 65535) as u32),
+            _ => O::from_code(v as u32),
+        };
+        sharpen_pixels(rows, luma, |x, e, y, blurred| {
+            // 16 times the detail times the Q12 amount: shift by 4 + 12, rounding.
+            let detail16 = 16 * i64::from(y) - i64::from(blurred);
+            let add = (amount * detail16 + (1 << 15)) >> 16;
+            for (o, v) in out[3 * x..3 * x + 3].iter_mut().zip(e) {
+                *o = to_output((i64::from(v) + add).clamp(0, 65535));
+            }
+        });
+    }
+}
+
+impl FixedPipeline<'_> {
+    /// Denoise (or the pixel itself), CCM and tone at pixel `x` of the middle row of `rows`.
+    #[inline]
+    fn linear_pixel(&self, rows: [&[u16]; 3], x: usize) -> [u16; 3] {
+        let mut lin = match self.inverse_denoise {
+            Some(inv) => denoise::pixel_u16(rows, x, inv),
+            None => [rows[1][3 * x], rows[1][3 * x + 1], rows[1][3 * x + 2]],
+        };
+        if let Some(m) = &self.ccm_q {
+            lin = ccm::apply_u16(m, CCM_FRAC_BITS, lin);
+        }
+        if let Some(m) = &self.saturation_q {
+            lin = ccm::apply_u16(m, SATURATION_FRAC_BITS, lin);
+        }
+        if let Some(lut) = &self.tone_lut {
+            lin = lin.map(|v| lut.lookup(v));
+        }
+        lin
     }
 }
 
@@ -914,6 +1098,14 @@ struct Engine<'s, 'p, A: Path> {
     demosaic_ring: &'s mut [A::P],
     demosaic_slots: usize,
     demosaic_window: RowWindow,
+    /// Distortion-corrected RGB (denoise's window when the correction is on), `RGB_ROWS`
+    /// rows.
+    corrected_ring: &'s mut [A::P],
+    corrected_window: RowWindow,
+    /// The scratch the run needs with distortion correction on, for the error when a lens
+    /// bends rows further than the ring holds.
+    needed: Option<usize>,
+    provided: usize,
 }
 
 impl<A: Path> Engine<'_, '_, A> {
@@ -932,6 +1124,57 @@ impl<A: Path> Engine<'_, '_, A> {
             }
         }
         Ok(())
+    }
+
+    /// Makes the denoise window around row `y` held (demosaiced rows, or distortion-corrected
+    /// ones when the correction is on) and returns its rows `y - 1`, `y`, `y + 1` (reflected).
+    fn window(&mut self, y: usize) -> Result<[&[A::P]; 3], IspError> {
+        let (w, h) = (self.input.width(), self.input.height());
+        let radius = self.path.denoise_radius() as isize;
+        let taps = (-radius..=radius).map(|dy| reflect(y as isize + dy, h));
+        let (lo, hi) = taps.fold((usize::MAX, 0), |(lo, hi), r| (lo.min(r), hi.max(r)));
+        let Some(lens) = self.path.distortion() else {
+            self.demosaic_rows(lo, hi)?;
+            return Ok(Self::rows_around(self.demosaic_ring, y, w, h));
+        };
+        for range in self.corrected_window.request(lo, hi, RGB_ROWS) {
+            for v in range {
+                let slot = v % RGB_ROWS;
+                let Some(source) = lens.source_rows(v, w, h) else {
+                    self.corrected_ring[slot * 3 * w..(slot + 1) * 3 * w].fill(A::P::default());
+                    continue;
+                };
+                let (s0, s1) = (*source.start(), *source.end());
+                if s1 - s0 + 1 > self.demosaic_slots {
+                    return Err(IspError::BufferTooSmall {
+                        needed: self.needed.unwrap_or(usize::MAX),
+                        provided: self.provided,
+                    });
+                }
+                self.demosaic_rows(s0, s1)?;
+                let ring: &[A::P] = self.demosaic_ring;
+                let slots = self.demosaic_slots;
+                // Rows s0..=s1 fit the ring: their slots follow s0's, wrapping once.
+                // correct_row reads only those rows; the clamp keeps this total anyway.
+                let first = s0 % slots;
+                let row = |ry: usize| {
+                    let slot = first + ry.saturating_sub(s0).min(slots - 1);
+                    let slot = if slot >= slots { slot - slots } else { slot };
+                    &ring[slot * 3 * w..(slot + 1) * 3 * w]
+                };
+                let dst = &mut self.corrected_ring[slot * 3 * w..(slot + 1) * 3 * w];
+                lens.correct_row(v, w, h, row, dst);
+            }
+        }
+        Ok(Self::rows_around(self.corrected_ring, y, w, h))
+    }
+
+    /// Rows `y - 1`, `y`, `y + 1` (reflected) of a ring of `RGB_ROWS` rows.
+    fn rows_around(ring: &[A::P], y: usize, w: usize, h: usize) -> [&[A::P]; 3] {
+        core::array::from_fn(|i| {
+            let slot = reflect(y as isize + i as isize - 1, h) % RGB_ROWS;
+            &ring[slot * 3 * w..(slot + 1) * 3 * w]
+        })
     }
 
     /// A linear frame's row, prepared as a demosaiced one is; the highlight stage sees the
@@ -1095,8 +1338,12 @@ fn run_rows<A: Path, O: OutputSample>(
         Input::Mosaic(_) => directional_len::<A::Directional>(path.method(), w).ok_or(too_wide)?,
         Input::Linear(_) => 0,
     };
+    let sharpen_part = match path.sharpen_on() {
+        true => w.checked_mul(3 * SHARPEN_ROWS).ok_or(too_wide)?,
+        false => 0,
+    };
     let base = scratch_len(w)
-        .and_then(|b| b.checked_add(directional_part))
+        .and_then(|b| b.checked_add(directional_part)?.checked_add(sharpen_part))
         .ok_or(too_wide)?;
     if scratch.len() < base {
         return Err(IspError::BufferTooSmall {
@@ -1111,6 +1358,7 @@ fn run_rows<A: Path, O: OutputSample>(
     // of corrected rows is, and the demosaiced ring takes all the scratch left.
     let (window_ring, rest) = rest.split_at_mut(RGB_ROWS * 3 * w);
     let (planes, rest) = rest.split_at_mut(directional_part);
+    let (sharpen_ring, rest) = rest.split_at_mut(sharpen_part);
     let directional = match input {
         Input::Mosaic(raw) if directional_part > 0 => {
             Stream::new(w, h, raw.mosaic().pattern(), A::directional_planes(planes))?
@@ -1133,59 +1381,33 @@ fn run_rows<A: Path, O: OutputSample>(
         demosaic_ring,
         demosaic_slots,
         demosaic_window: RowWindow::default(),
+        corrected_ring,
+        corrected_window: RowWindow::default(),
+        needed: distortion
+            .and_then(|lens| engine_scratch_len(Some(lens), directional_part + sharpen_part, w, h)),
+        provided,
     };
-    let mut corrected_window = RowWindow::default();
-    let radius = path.denoise_radius() as isize;
-
+    let mut sharpen_window = RowWindow::default();
     for y in rows.clone() {
-        let taps = (-radius..=radius).map(|dy| reflect(y as isize + dy, h));
-        let (lo, hi) = taps.fold((usize::MAX, 0), |(lo, hi), r| (lo.min(r), hi.max(r)));
-        match distortion {
-            None => engine.demosaic_rows(lo, hi)?,
-            Some(lens) => {
-                for range in corrected_window.request(lo, hi, RGB_ROWS) {
-                    for v in range {
-                        let slot = v % RGB_ROWS;
-                        let dst = &mut corrected_ring[slot * 3 * w..(slot + 1) * 3 * w];
-                        let Some(source) = lens.source_rows(v, w, h) else {
-                            dst.fill(A::P::default());
-                            continue;
-                        };
-                        let (s0, s1) = (*source.start(), *source.end());
-                        if s1 - s0 + 1 > engine.demosaic_slots {
-                            return Err(IspError::BufferTooSmall {
-                                needed: engine_scratch_len(Some(lens), directional_part, w, h)
-                                    .ok_or(too_wide)?,
-                                provided,
-                            });
-                        }
-                        engine.demosaic_rows(s0, s1)?;
-                        let ring: &[A::P] = engine.demosaic_ring;
-                        let slots = engine.demosaic_slots;
-                        // Rows s0..=s1 fit the ring: their slots follow s0's, wrapping once.
-                        // correct_row reads only those rows; the clamp keeps this total anyway.
-                        let first = s0 % slots;
-                        let row = |ry: usize| {
-                            let slot = first + ry.saturating_sub(s0).min(slots - 1);
-                            let slot = if slot >= slots { slot - slots } else { slot };
-                            &ring[slot * 3 * w..(slot + 1) * 3 * w]
-                        };
-                        lens.correct_row(v, w, h, row, dst);
-                    }
-                }
+        let out_row = out.row_mut(y - rows.start);
+        if sharpen_part == 0 {
+            path.finish_row(engine.window(y)?, out_row);
+            continue;
+        }
+        // The sharpening window: encoded rows y - 1 ..= y + 1, each from its own denoise window.
+        let taps = [-1isize, 0, 1].map(|dy| reflect(y as isize + dy, h));
+        let (lo, hi) = (taps[0].min(y), taps[2].max(y));
+        for range in sharpen_window.request(lo, hi, SHARPEN_ROWS) {
+            for v in range {
+                let slot = v % SHARPEN_ROWS;
+                let window = engine.window(v)?;
+                path.encoded_row(window, &mut sharpen_ring[slot * 3 * w..(slot + 1) * 3 * w]);
             }
         }
-        let ring: &[A::P] = if distortion.is_some() {
-            corrected_ring
-        } else {
-            engine.demosaic_ring
-        };
-        let window: [&[A::P]; 3] = core::array::from_fn(|i| {
-            let ry = reflect(y as isize + i as isize - 1, h);
-            let slot = ry % RGB_ROWS;
-            &ring[slot * 3 * w..(slot + 1) * 3 * w]
-        });
-        path.finish_row(window, out.row_mut(y - rows.start));
+        let ring: &[A::P] = sharpen_ring;
+        let encoded =
+            taps.map(|v| &ring[(v % SHARPEN_ROWS) * 3 * w..(v % SHARPEN_ROWS + 1) * 3 * w]);
+        path.sharpen_row(encoded, out_row);
     }
     Ok(())
 }

@@ -710,3 +710,64 @@ fn distortion_parameters_are_checked() {
         assert_eq!(lens.window_rows(5, 4), 0);
     }
 }
+
+/// Sharpening steepens an edge and leaves flat ground alone: on a vertical step from dark to
+/// light grey, the output without sharpening is flat on each side; with it the dark side dips
+/// and the light side rises next to the edge, and pixels beyond the blur's reach are
+/// unchanged. Both paths.
+#[test]
+fn sharpening_steepens_an_edge_and_leaves_flat_ground() {
+    use isp_core::pipeline::FloatPipeline;
+    let (w, h) = (16, 8);
+    // A grey mosaic: 600 left of column 8, 2400 from it on (12-bit, black 0).
+    let data: Vec<u16> = (0..w * h)
+        .map(|i| if i % w < 8 { 600 } else { 2400 })
+        .collect();
+    let raw = RawFrame::new(&data, w, h, w, 12, CfaPattern::Rggb, [0; 4], 4095).unwrap();
+    let develop = |sharpen: f32, fixed: bool| {
+        let config = IspConfig {
+            demosaic: isp_core::demosaic::Method::Bilinear,
+            sharpen,
+            ..IspConfig::default()
+        };
+        let mut rgb = vec![0u8; w * h * 3];
+        let mut out = RgbViewMut::new(&mut rgb, w, h, 3 * w).unwrap();
+        if fixed {
+            let p = FixedPipeline::new(&config, 8).unwrap();
+            let mut scratch = vec![0u16; p.scratch_len(w, h).unwrap()];
+            p.run(&raw, 0..h, &mut scratch, &mut out).unwrap();
+        } else {
+            let p = FloatPipeline::new(&config).unwrap();
+            let mut scratch = vec![0f32; p.scratch_len(w, h).unwrap()];
+            p.run(&raw, 0..h, &mut scratch, &mut out).unwrap();
+        }
+        // Green of row 3, every column.
+        (0..w)
+            .map(|x| i32::from(rgb[3 * (3 * w + x) + 1]))
+            .collect::<Vec<_>>()
+    };
+    for fixed in [false, true] {
+        let plain = develop(0.0, fixed);
+        let sharp = develop(1.0, fixed);
+        // Bilinear blends the two columns at the step; beyond them the sides are flat.
+        assert!(plain[..7].iter().all(|v| *v == plain[0]), "{plain:?}");
+        assert!(plain[9..].iter().all(|v| *v == plain[15]), "{plain:?}");
+        for x in [0, 1, 2, 3, 4, 11, 12, 13, 14, 15] {
+            assert_eq!(
+                sharp[x], plain[x],
+                "column {x}: {sharp:?} against {plain:?}"
+            );
+        }
+        // The undershoot and overshoot beside the edge.
+        assert!(
+            sharp[6] < plain[6] && sharp[8] > plain[8],
+            "{sharp:?} against {plain:?}"
+        );
+    }
+    assert!(IspConfig {
+        sharpen: 4.5,
+        ..IspConfig::default()
+    }
+    .validate()
+    .is_err());
+}

@@ -56,8 +56,10 @@ fn full_pipeline_run_allocates_nothing() {
         BrownConrady::from_opencv([-0.2, 0.03, 0.001, 0.0, 0.0]).unwrap(),
     )
     .unwrap();
+    // The scratch is sized before counting starts, for the configuration run below.
     let with_lens = IspConfig {
         distortion: Some(lens),
+        sharpen: 0.5,
         ..IspConfig::default()
     };
     let len = with_lens.scratch_len(w, h).unwrap();
@@ -96,6 +98,7 @@ fn full_pipeline_run_allocates_nothing() {
             contrast: 1.1,
             curve,
         },
+        sharpen: 0.5,
     };
     let float = FloatPipeline::new(&config).unwrap();
     float

@@ -138,6 +138,8 @@ pub struct Settings {
     pub method: Method,
     /// See the pipeline docs.
     pub distortion: Option<LensDistortion>,
+    /// See the pipeline docs.
+    pub sharpen: f32,
 }
 
 impl Settings {
@@ -160,6 +162,7 @@ impl Settings {
             highlight_knee: self.highlight_knee,
             ccm: self.ccm,
             tone: self.tone,
+            sharpen: self.sharpen,
         }
     }
 
@@ -177,6 +180,7 @@ impl Settings {
             tone: Tone::default(),
             method: Method::Bilinear,
             distortion: None,
+            sharpen: 0.0,
         }
     }
 }
@@ -500,7 +504,8 @@ fn finish_reference(rgb: Vec<[f64; 3]>, w: usize, h: usize, s: &Settings) -> Vec
         None => rgb,
     };
     let rgb = denoise_reference(&rgb, w, h, s.denoise as f64);
-    rgb.iter()
+    let encoded: Vec<[f64; 3]> = rgb
+        .iter()
         .map(|p| {
             let lin: [f64; 3] = std::array::from_fn(|i| {
                 (0..3)
@@ -509,6 +514,26 @@ fn finish_reference(rgb: Vec<[f64; 3]>, w: usize, h: usize, s: &Settings) -> Vec
                     .clamp(0.0, 1.0)
             });
             tone_reference(&s.tone, lin).map(srgb_reference)
+        })
+        .collect();
+    if s.sharpen == 0.0 {
+        return encoded;
+    }
+    // Unsharp mask on Rec. 709 luma: the luma's difference from its 3x3 binomial blur
+    // (reflect-101), times the amount, added to each channel.
+    let luma = |p: &[f64; 3]| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
+    (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as i64, (i / w) as i64);
+            let mut blur = 0.0;
+            for dy in -1..=1i64 {
+                for dx in -1..=1i64 {
+                    let weight = ((2 - dx.abs()) * (2 - dy.abs())) as f64 / 16.0;
+                    blur += weight * luma(&encoded[mirror(y + dy, h) * w + mirror(x + dx, w)]);
+                }
+            }
+            let detail = s.sharpen as f64 * (luma(&encoded[i]) - blur);
+            encoded[i].map(|v| (v + detail).clamp(0.0, 1.0))
         })
         .collect()
 }

@@ -113,6 +113,7 @@ fn fixed_path_agrees_with_float_over_kodak_and_mcmaster() {
                 static_defects: &[],
                 dynamic_threshold: (i % 4 == 0).then_some(600),
             },
+            sharpen: [0.0, 1.0, 0.5][(i / 2) % 3],
             ..IspConfig::default()
         }
     });
@@ -159,6 +160,7 @@ fn camsim_isp_reproduces_the_float_semantics_on_kodak() {
         demosaic = "bilinear"
         denoise = 0.03
         look = "vivid"
+        sharpen = 0.6
         path = "float"
         out-bits = 8
         "#,
@@ -168,6 +170,7 @@ fn camsim_isp_reproduces_the_float_semantics_on_kodak() {
     let (report, out) = develop(&input, &options, None, RunOptions::default()).unwrap();
     assert_eq!(out.bits, 8);
     assert!(report.stages.contains(&"denoise") && report.stages.contains(&"colour matrix"));
+    assert_eq!(report.stages.last(), Some(&"sharpening"));
     let frame = Frame {
         data,
         w,
@@ -185,6 +188,7 @@ fn camsim_isp_reproduces_the_float_semantics_on_kodak() {
         denoise: 0.03,
         highlight_knee: camsim::develop::DEFAULT_HIGHLIGHT_KNEE,
         tone: Look::Vivid.tone(),
+        sharpen: 0.6,
         ..Settings::plain()
     };
     let expected = reference(&frame, &settings);

@@ -172,6 +172,7 @@ fn settings_strategy(w: usize, h: usize) -> impl Strategy<Value = Settings> {
             0usize..Method::ALL.len(),
             proptest::option::of(lens(w, h)),
             prop_oneof![Just(1.0f32), 0.3f32..1.0],
+            prop_oneof![Just(0.0f32), 0.0f32..4.0],
         ),
     )
         .prop_map(
@@ -184,7 +185,7 @@ fn settings_strategy(w: usize, h: usize) -> impl Strategy<Value = Settings> {
                 wb,
                 denoise,
                 ccm,
-                (sat, contrast, curve, method, distortion, highlight_knee),
+                (sat, contrast, curve, method, distortion, highlight_knee, sharpen),
             )| {
                 let mut defects: Vec<Defect> =
                     defects.into_iter().map(|(x, y)| Defect { x, y }).collect();
@@ -212,6 +213,7 @@ fn settings_strategy(w: usize, h: usize) -> impl Strategy<Value = Settings> {
                     },
                     method: Method::ALL[method],
                     distortion,
+                    sharpen,
                 }
             },
         )
@@ -357,6 +359,7 @@ fn busy_settings() -> Settings {
             )
             .unwrap(),
         ),
+        sharpen: 0.8,
     }
 }
 
@@ -446,6 +449,9 @@ fn flat_field_stays_flat_through_every_stage() {
     let mut s = base.clone();
     s.tone = isp_core::tone::Look::HighContrast.tone();
     variants.push(("tone", s));
+    let mut s = base.clone();
+    s.sharpen = 2.0;
+    variants.push(("sharpen", s));
     variants.push(("all", busy_settings()));
     for pattern in CfaPattern::ALL {
         let (w, h) = (9, 7);

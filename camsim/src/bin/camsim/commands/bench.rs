@@ -262,6 +262,9 @@ fn bench_isp(args: &BenchIspArgs) -> Result<String, Error> {
             stages.push("colour matrix");
         }
         stages.push("sRGB encode");
+        if p.config.sharpen > 0.0 {
+            stages.push("sharpening");
+        }
         Ok(IspFigures {
             input: name,
             width: w,
@@ -357,6 +360,7 @@ fn opencv_peer(
         "white": raw.white_level(),
         "wb": config.wb_gains.map(|g| g * config.gain),
         "ccm": config.ccm,
+        "sharpen": config.sharpen,
         "threads": threads,
         "repeats": repeats,
     });

@@ -1,15 +1,17 @@
 """The OpenCV peer of `camsim bench isp`: the same stages done the usual OpenCV way, timed in
 the same run. Embedded in camsim and run with the oracle environment's Python.
 
-argv[1]: a JSON object {frame, width, height, pattern, black, white, wb, ccm, threads, repeats}
+argv[1]: a JSON object {frame, width, height, pattern, black, white, wb, ccm, sharpen, threads,
+repeats}
 where frame is a file of width * height little-endian uint16 raw samples. Prints one JSON
 object {ms_per_frame, stages}.
 
 Stages: black level (cv2.subtract, saturating), Bayer bilinear demosaic at 16 bits
 (cv2.cvtColor), white balance and normalisation as one per-channel scale to float32
 (cv2.multiply), the colour matrix (cv2.transform), then 8-bit linear codes
-(cv2.convertScaleAbs) through an sRGB table (cv2.LUT). OpenCV has no defect correction, so
-none runs. The 8-bit linear step loses shadow detail camsim keeps: this is a speed peer."""
+(cv2.convertScaleAbs) through an sRGB table (cv2.LUT); with sharpen > 0, an unsharp mask on
+the luma of YCrCb (cv2.cvtColor, cv2.GaussianBlur 3x3, cv2.addWeighted, back to RGB). OpenCV
+has no defect correction, so none runs. The 8-bit linear step loses shadow detail camsim keeps: this is a speed peer."""
 
 import json
 import sys
@@ -33,13 +35,21 @@ def main():
     x = np.arange(256) / 255.0
     lut = np.round(255 * np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055)).astype(np.uint8)
     code = CODES[a["pattern"]]
+    sharpen = a.get("sharpen", 0.0)
 
     def run():
         d = cv2.subtract(raw, black)
         rgb = cv2.cvtColor(d, code)
         lin = cv2.multiply(rgb, scale, dtype=cv2.CV_32F)
         out = cv2.transform(lin, ccm)
-        return cv2.LUT(cv2.convertScaleAbs(out, alpha=255.0), lut)
+        encoded = cv2.LUT(cv2.convertScaleAbs(out, alpha=255.0), lut)
+        if sharpen > 0:
+            ycc = cv2.cvtColor(encoded, cv2.COLOR_RGB2YCrCb)
+            y = ycc[:, :, 0]
+            blur = cv2.GaussianBlur(y, (3, 3), 0)
+            ycc[:, :, 0] = cv2.addWeighted(y, 1 + sharpen, blur, -sharpen, 0)
+            encoded = cv2.cvtColor(ycc, cv2.COLOR_YCrCb2RGB)
+        return encoded
 
     best = float("inf")
     for _ in range(a["repeats"]):
@@ -48,7 +58,8 @@ def main():
         best = min(best, time.perf_counter() - t)
     print(json.dumps({
         "ms_per_frame": best * 1e3,
-        "stages": "cv2.subtract, cv2.cvtColor (Bayer, 16-bit), cv2.multiply, cv2.transform, cv2.convertScaleAbs, cv2.LUT",
+        "stages": "cv2.subtract, cv2.cvtColor (Bayer, 16-bit), cv2.multiply, cv2.transform, cv2.convertScaleAbs, cv2.LUT"
+        + (", unsharp mask on YCrCb luma" if sharpen > 0 else ""),
     }))
 
 

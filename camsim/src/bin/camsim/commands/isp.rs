@@ -88,6 +88,10 @@ pub struct ProcessingArgs {
     /// speckled; 1 is off [default: 0.9].
     #[arg(long)]
     pub highlight_knee: Option<f32>,
+    /// Sharpening, [0, 4]: the amount of an unsharp mask on luma after sRGB encoding (the same
+    /// luma detail added to each channel); 0 is off [default: 0].
+    #[arg(long)]
+    pub sharpen: Option<f32>,
     /// Dynamic defective-pixel threshold in raw units [default: off].
     #[arg(long)]
     pub dpc_threshold: Option<u16>,
@@ -164,6 +168,7 @@ impl ProcessingArgs {
             crop: self.crop.map(Into::into),
             baseline_exposure: self.no_baseline_exposure.then_some(false),
             highlight_knee: self.highlight_knee,
+            sharpen: self.sharpen,
         })
     }
 
