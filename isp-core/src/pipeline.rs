@@ -585,10 +585,24 @@ impl Path for FloatPipeline<'_> {
         let (w, h) = (mosaic.width(), mosaic.height());
         let white = raw.white_level() as f32;
         let pattern = mosaic.pattern();
+        let Some(lsc) = &c.lsc else {
+            // Without shading every sample of one CFA position takes the same steps: the
+            // constants of the row's two positions are fetched once (as in the fixed path).
+            let steps: [(u16, f32, f32); 2] = core::array::from_fn(|i| {
+                let (x, black) = (x0 + i, raw.black_at(x0 + i, y));
+                (black, white - black as f32, c.wb_gains[pattern.colour_at(x, y).index()])
+            });
+            for (o, r) in out.chunks_mut(2).zip(dpc.chunks(2)) {
+                for ((o, r), &(black, range, wb)) in o.iter_mut().zip(r).zip(&steps) {
+                    *o = self.pointwise(r.saturating_sub(black), range, None, wb);
+                }
+            }
+            return;
+        };
         for (i, (o, &r)) in out.iter_mut().zip(dpc).enumerate() {
             let x = x0 + i;
             let black = raw.black_at(x, y);
-            let shading = c.lsc.as_ref().map(|lsc| lsc.gain_f32(x, y, w, h));
+            let shading = Some(lsc.gain_f32(x, y, w, h));
             let wb = c.wb_gains[pattern.colour_at(x, y).index()];
             *o = self.pointwise(r.saturating_sub(black), white - black as f32, shading, wb);
         }
