@@ -590,7 +590,11 @@ impl Path for FloatPipeline<'_> {
             // constants of the row's two positions are fetched once (as in the fixed path).
             let steps: [(u16, f32, f32); 2] = core::array::from_fn(|i| {
                 let (x, black) = (x0 + i, raw.black_at(x0 + i, y));
-                (black, white - black as f32, c.wb_gains[pattern.colour_at(x, y).index()])
+                (
+                    black,
+                    white - black as f32,
+                    c.wb_gains[pattern.colour_at(x, y).index()],
+                )
             });
             for (o, r) in out.chunks_mut(2).zip(dpc.chunks(2)) {
                 for ((o, r), &(black, range, wb)) in o.iter_mut().zip(r).zip(&steps) {

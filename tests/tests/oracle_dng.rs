@@ -577,7 +577,14 @@ proptest! {
         } else {
             prop_assert!(worst == 0.0, "{:?}: worst difference {} from LibRaw's samples", storage, worst);
         }
-        let options = IspOptions { crop: Some(CropChoice::Active), ..IspOptions::default() };
+        // LibRaw clips each channel at white (its highlight mode 0); camsim's highlight stage,
+        // on by default, fades clipped pixels to neutral instead, so it is off here (knee 1,
+        // which leaves camsim clipping the same way).
+        let options = IspOptions {
+            crop: Some(CropChoice::Active),
+            highlight_knee: Some(1.0),
+            ..IspOptions::default()
+        };
         let (report, rgb) = develop(&input, &options, None, RunOptions::default()).unwrap();
         prop_assert!(!report.stages.iter().any(|s| s.contains("bilinear")), "{:?}", report.stages);
         if black > 0 {
@@ -587,10 +594,9 @@ proptest! {
         let psnr = psnr_inside(&rgb, &developed[0].to_f64(), 1);
         println!("linear {storage:?} kodim{image:02} {width}x{height}: {psnr:.2} dB against LibRaw's development, samples within {worst:.2} ({share_beyond_one:.4} beyond one)");
         // Lossy files carry the two JPEG decoders' disagreement (checked on the samples above)
-        // into the development: mostly 40-54 dB, against 50-58 dB for lossless storage. Some
-        // untiled kodim22 crops develop at 37-40 dB with their samples as close as the rest;
-        // why is not known yet (an open note), so the floor for lossy files is 35 dB.
-        let floor = if lossy { 35.0 } else { 40.0 };
-        prop_assert!(psnr >= floor, "{:?}: {:.2} dB against LibRaw", storage, psnr);
+        // into the development. (With camsim's default highlight knee, kodim22's saturated
+        // reds developed at 37-40 dB: lossy JPEG overshoots at their edges past the clip
+        // level, where the highlight stage turns a pixel neutral and LibRaw keeps its hue.)
+        prop_assert!(psnr >= 40.0, "{:?}: {:.2} dB against LibRaw", storage, psnr);
     }
 }
