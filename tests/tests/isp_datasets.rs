@@ -30,6 +30,25 @@ fn raw12(rgb: &Image) -> Vec<u16> {
         .collect()
 }
 
+/// How closely two outputs agree, sample by sample.
+#[derive(Default)]
+struct Agreement {
+    total: usize,
+    within1: usize,
+    worst: u16,
+}
+
+impl Agreement {
+    fn add<T: Copy + Into<u16>>(&mut self, a: &[T], b: &[T]) {
+        for (a, b) in a.iter().zip(b) {
+            let d = (*a).into().abs_diff((*b).into());
+            self.total += 1;
+            self.within1 += usize::from(d <= 1);
+            self.worst = self.worst.max(d);
+        }
+    }
+}
+
 /// Runs both paths over every Kodak and McMaster image with `config_for(index, width,
 /// height)` and checks the 8-bit outputs agree within 1 LSB on at least 99.9 % of samples and
 /// within 2 everywhere.
@@ -37,7 +56,7 @@ fn paths_agree_over_kodak_and_mcmaster(
     what: &str,
     config_for: impl Fn(usize, usize, usize) -> IspConfig<'static>,
 ) {
-    let (mut total, mut within1, mut worst) = (0usize, 0usize, 0u8);
+    let mut agreement = Agreement::default();
     for (i, path) in dataset("kodak")
         .into_iter()
         .chain(dataset("mcmaster"))
@@ -68,13 +87,13 @@ fn paths_agree_over_kodak_and_mcmaster(
                 &mut RgbViewMut::new(&mut fixed, w, h, 3 * w).unwrap(),
             )
             .unwrap();
-        for (a, b) in float.iter().zip(&fixed) {
-            let d = a.abs_diff(*b);
-            total += 1;
-            within1 += usize::from(d <= 1);
-            worst = worst.max(d);
-        }
+        agreement.add(&float, &fixed);
     }
+    let Agreement {
+        total,
+        within1,
+        worst,
+    } = agreement;
     let share = within1 as f64 / total as f64;
     println!(
         "{what}: fixed vs float {:.5}% within 1 LSB, worst {worst} LSB, {total} samples",
@@ -210,7 +229,7 @@ fn camsim_isp_reproduces_the_float_semantics_on_kodak() {
 fn directional_fixed_tracks_the_float_method_over_kodak_and_mcmaster() {
     use isp_core::demosaic::directional::{directional, directional_fixed, scratch_len};
     use isp_core::frame::MosaicView;
-    let (mut total, mut within1, mut worst) = (0usize, 0usize, 0u16);
+    let mut agreement = Agreement::default();
     for path in dataset("kodak").into_iter().chain(dataset("mcmaster")) {
         let rgb = imageio::read(&path).unwrap();
         let (w, h) = (rgb.width, rgb.height);
@@ -227,13 +246,13 @@ fn directional_fixed_tracks_the_float_method_over_kodak_and_mcmaster() {
         directional(&mosaic, &mut view, &mut vec![0.0; scratch_len(w).unwrap()]).unwrap();
         let mut view = RgbViewMut::new(&mut fixed, w, h, 3 * w).unwrap();
         directional_fixed(&mosaic, &mut view, &mut vec![0; scratch_len(w).unwrap()]).unwrap();
-        for (a, b) in float.iter().zip(&fixed) {
-            let d = a.abs_diff(*b);
-            total += 1;
-            within1 += usize::from(d <= 1);
-            worst = worst.max(d);
-        }
+        agreement.add(&float, &fixed);
     }
+    let Agreement {
+        total,
+        within1,
+        worst,
+    } = agreement;
     let share = within1 as f64 / total as f64;
     println!(
         "directional fixed vs float at 16 bits: {:.4}% within 1 LSB, worst {worst}",
