@@ -456,10 +456,13 @@ fn sharpen_pixels<V: Copy, L: Copy + core::ops::Add<Output = L>>(
         return;
     }
     let pixel = |row: &[V], x: usize| [row[3 * x], row[3 * x + 1], row[3 * x + 2]];
-    // The luma of rows -1, 0, 1 at column x, weighted 1 2 1.
+    // The luma of rows -1, 0, 1 at column x weighted 1 2 1, and the middle row's own.
     let column = |x: usize| {
         let mid = luma(pixel(rows[1], x));
-        luma(pixel(rows[0], x)) + mid + mid + luma(pixel(rows[2], x))
+        (
+            luma(pixel(rows[0], x)) + mid + mid + luma(pixel(rows[2], x)),
+            mid,
+        )
     };
     // Columns x - 1, x and x + 1, slid along the row.
     let mut window = [column(reflect(-1, w)), column(0), column(reflect(1, w))];
@@ -467,9 +470,8 @@ fn sharpen_pixels<V: Copy, L: Copy + core::ops::Add<Output = L>>(
         if x > 0 {
             window = [window[1], window[2], column(reflect(x as isize + 1, w))];
         }
-        let centre = pixel(rows[1], x);
-        let blurred = window[0] + window[1] + window[1] + window[2];
-        emit(x, centre, luma(centre), blurred);
+        let blurred = window[0].0 + window[1].0 + window[1].0 + window[2].0;
+        emit(x, pixel(rows[1], x), window[1].1, blurred);
     }
 }
 

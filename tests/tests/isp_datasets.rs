@@ -47,6 +47,11 @@ impl Agreement {
             self.worst = self.worst.max(d);
         }
     }
+
+    /// The share of samples within 1.
+    fn share_within1(&self) -> f64 {
+        self.within1 as f64 / self.total as f64
+    }
 }
 
 /// Runs both paths over every Kodak and McMaster image with `config_for(index, width,
@@ -89,12 +94,7 @@ fn paths_agree_over_kodak_and_mcmaster(
             .unwrap();
         agreement.add(&float, &fixed);
     }
-    let Agreement {
-        total,
-        within1,
-        worst,
-    } = agreement;
-    let share = within1 as f64 / total as f64;
+    let (share, worst, total) = (agreement.share_within1(), agreement.worst, agreement.total);
     println!(
         "{what}: fixed vs float {:.5}% within 1 LSB, worst {worst} LSB, {total} samples",
         100.0 * share
@@ -248,12 +248,7 @@ fn directional_fixed_tracks_the_float_method_over_kodak_and_mcmaster() {
         directional_fixed(&mosaic, &mut view, &mut vec![0; scratch_len(w).unwrap()]).unwrap();
         agreement.add(&float, &fixed);
     }
-    let Agreement {
-        total,
-        within1,
-        worst,
-    } = agreement;
-    let share = within1 as f64 / total as f64;
+    let (share, worst) = (agreement.share_within1(), agreement.worst);
     println!(
         "directional fixed vs float at 16 bits: {:.4}% within 1 LSB, worst {worst}",
         100.0 * share

@@ -297,18 +297,6 @@ pub(crate) struct Stream<'s, A: Arithmetic> {
 }
 
 impl<'s, A: Arithmetic> Stream<'s, A> {
-    /// A stream over `frame` that starts at the top, in `scratch` (checked by [`prepare`]).
-    #[inline(always)]
-    fn over(frame: Frame, scratch: &'s mut [A::E]) -> Self {
-        let stride = frame.half * 2;
-        Stream {
-            frame,
-            planes: Planes::split(scratch, stride),
-            first: 0,
-            next: 0,
-        }
-    }
-
     /// A stream for a `width` x `height` mosaic of `pattern` in `scratch` (at least
     /// [`scratch_len`]`(width)` elements); `None` when the frame is under 2 pixels wide or
     /// high, which the method does not stream (it falls back to bilinear's line rule).
@@ -322,7 +310,13 @@ impl<'s, A: Arithmetic> Stream<'s, A> {
             return Ok(None);
         }
         let frame = geometry(width, height, pattern, scratch.len())?;
-        Ok(Some(Self::over(frame, scratch)))
+        let stride = frame.half * 2;
+        Ok(Some(Stream {
+            frame,
+            planes: Planes::split(scratch, stride),
+            first: 0,
+            next: 0,
+        }))
     }
 
     /// Starts again so that the next row written is frame row `y`.

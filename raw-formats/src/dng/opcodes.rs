@@ -57,6 +57,15 @@ pub struct Region {
 }
 
 impl Region {
+    /// The region's fields as an opcode's parameters write them (big-endian): area, plane,
+    /// planes, row pitch, column pitch.
+    fn encode(&self, out: &mut Vec<u8>) {
+        let fields = [self.plane, self.planes, self.row_pitch, self.col_pitch];
+        for v in self.area.iter().chain(&fields) {
+            out.extend_from_slice(&v.to_be_bytes());
+        }
+    }
+
     /// Whether sample `plane` of pixel `(x, y)` is in the region.
     pub fn covers(&self, x: usize, y: usize, plane: usize) -> bool {
         let [top, left, bottom, right] = self.area.map(|v| v as usize);
@@ -585,15 +594,7 @@ pub fn encode(list: &[Opcode]) -> Vec<u8> {
                 (9, false)
             }
             Opcode::MapTable { region, table } => {
-                region.area.iter().for_each(|v| u(&mut p, *v));
-                for v in [
-                    region.plane,
-                    region.planes,
-                    region.row_pitch,
-                    region.col_pitch,
-                ] {
-                    u(&mut p, v);
-                }
+                region.encode(&mut p);
                 u(&mut p, table.len() as u32);
                 table
                     .iter()
@@ -604,15 +605,7 @@ pub fn encode(list: &[Opcode]) -> Vec<u8> {
                 region,
                 coefficients,
             } => {
-                region.area.iter().for_each(|v| u(&mut p, *v));
-                for v in [
-                    region.plane,
-                    region.planes,
-                    region.row_pitch,
-                    region.col_pitch,
-                ] {
-                    u(&mut p, v);
-                }
+                region.encode(&mut p);
                 u(&mut p, coefficients.len().saturating_sub(1) as u32);
                 coefficients.iter().for_each(|v| d(&mut p, *v));
                 (8, false)

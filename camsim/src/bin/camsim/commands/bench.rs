@@ -189,14 +189,20 @@ fn synthetic_frame() -> Result<RawInput, Error> {
     Ok(input)
 }
 
-fn bench_isp(args: &BenchIspArgs) -> Result<String, Error> {
-    if args.repeats == 0 {
+/// `--repeats` is at least 1 (the best of none is no figure).
+fn at_least_one_repeat(repeats: u32) -> Result<(), Error> {
+    if repeats == 0 {
         return Err(Error::Option {
             option: "--repeats",
             value: "0".into(),
             allowed: "at least 1".into(),
         });
     }
+    Ok(())
+}
+
+fn bench_isp(args: &BenchIspArgs) -> Result<String, Error> {
+    at_least_one_repeat(args.repeats)?;
     let (input, name) = match &args.input {
         Some(path) => (RawInput::read(path)?, path.display().to_string()),
         None => (
@@ -384,13 +390,7 @@ fn opencv_peer(
 }
 
 fn bench_dng(args: &BenchDngArgs) -> Result<String, Error> {
-    if args.repeats == 0 {
-        return Err(Error::Option {
-            option: "--repeats",
-            value: "0".into(),
-            allowed: "at least 1".into(),
-        });
-    }
+    at_least_one_repeat(args.repeats)?;
     let bytes =
         std::fs::read(&args.input).map_err(|e| raw_formats::FormatError::io(&args.input, e))?;
     let mut best = f64::INFINITY;
