@@ -113,7 +113,8 @@ impl Demosaic {
 }
 
 /// The directional method in the fastest build this CPU runs: the AVX2 build where the CPU has
-/// it (bit-identical output), the baseline build otherwise. The one place camsim chooses.
+/// it (bit-identical output), the baseline build otherwise. With `develop`'s `fixed_dispatch`,
+/// the places camsim chooses.
 pub fn directional_dispatch<T: Sample>(
     mosaic: &MosaicView<'_, T>,
     out: &mut RgbViewMut<'_, T>,

@@ -720,11 +720,30 @@ impl<'a> Runner<'a> {
             PipelinePath::Fixed(p, scratch) => {
                 let p = &**p;
                 parallel(bands, w, scratch, out, |rows, s, view| {
-                    p.run_input(input, rows, s, view)
+                    fixed_dispatch(p, input, rows, s, view)
                 })
             }
         }
     }
+}
+
+/// The fixed pipeline in the fastest build this CPU runs: the AVX2 build where the CPU has it
+/// (bit-identical output, tested in isp-core), the baseline build otherwise; as
+/// `demosaic::directional_dispatch` chooses.
+fn fixed_dispatch<O: OutputSample>(
+    pipeline: &FixedPipeline<'_>,
+    input: Input<'_>,
+    rows: std::ops::Range<usize>,
+    scratch: &mut [u16],
+    out: &mut RgbViewMut<'_, O>,
+) -> Result<(), IspError> {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has just been found to support AVX2, the one target feature
+        // `run_input_avx2` is compiled for.
+        return unsafe { pipeline.run_input_avx2(input, rows, scratch, out) };
+    }
+    pipeline.run_input(input, rows, scratch, out)
 }
 
 /// Runs `job` on each band (rows of a frame `w` pixels wide) with its scratch and its rows of

@@ -1,6 +1,7 @@
 //! Runs the pipeline on a synthetic 2592x1968 10-bit RGGB frame in a loop, for `perf record`:
 //! `cargo run --release -p isp-core --example profile_pipeline -- fixed mhc 20`.
-//! Arguments: path (float or fixed), demosaic method, frames. Prints ms per frame.
+//! Arguments: path (float or fixed), demosaic method, frames, highlight knee. Prints ms per
+//! frame. Runs the AVX2 entry where the CPU has AVX2, unless `CAMSIM_BASELINE` is set.
 
 use isp_core::dpc::DpcConfig;
 use isp_core::frame::{RawFrame, RgbViewMut};
@@ -13,6 +14,8 @@ fn main() {
     let method = args.get(2).map_or("mhc", String::as_str).parse().unwrap();
     let frames: usize = args.get(3).map_or(10, |s| s.parse().unwrap());
     let knee: f32 = args.get(4).map_or(1.0, |s| s.parse().unwrap());
+    // CAMSIM_BASELINE=1 runs the baseline build even where AVX2 is there.
+    let avx2 = std::env::var_os("CAMSIM_BASELINE").is_none() && avx2_detected();
     let (w, h) = (2592usize, 1968usize);
     // A smooth gradient with texture, as a scene is: not constant, not noise.
     let mut state = 1u32;
@@ -45,7 +48,12 @@ fn main() {
         if path == "fixed" {
             let p = FixedPipeline::new(&config, 8).unwrap();
             let mut scratch = vec![0u16; len];
-            p.run(&raw, 0..h, &mut scratch, &mut view).unwrap();
+            if avx2 {
+                // SAFETY: AVX2 was detected at run time.
+                unsafe { p.run_input_avx2((&raw).into(), 0..h, &mut scratch, &mut view) }.unwrap();
+            } else {
+                p.run(&raw, 0..h, &mut scratch, &mut view).unwrap();
+            }
         } else {
             let p = FloatPipeline::new(&config).unwrap();
             let mut scratch = vec![0f32; len];
@@ -58,4 +66,11 @@ fn main() {
         "{path} {method:?}: {best:.2} ms per frame, {:.1} Mpix/s, checksum {checksum}",
         (w * h) as f64 / best / 1e3
     );
+}
+
+fn avx2_detected() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    return std::arch::is_x86_feature_detected!("avx2");
+    #[cfg(not(target_arch = "x86_64"))]
+    false
 }

@@ -156,6 +156,7 @@ pub fn correct_row(
 
 /// Pixels `x0..x0 + out.len()` of row `y`, corrected, for a caller that has checked the
 /// arguments (a sorted list, the span within the frame).
+#[inline(always)]
 pub(crate) fn correct_span(
     raw: &RawFrame<'_>,
     config: &DpcConfig<'_>,
@@ -235,7 +236,7 @@ const DETECT_BLOCK: usize = 128;
 /// neighbours by more than `threshold`, or below the second-smallest by more. `rows` are rows
 /// `y - 2`, `y` and `y + 2`. Branch-free over contiguous slices so it vectorises; saturating
 /// `u16` sums give the comparisons of the `u32` ones in [`dynamic_replacement`].
-#[inline]
+#[inline(always)]
 fn detect_interior(rows: [&[u16]; 3], x0: usize, threshold: u16, flags: &mut [bool]) {
     let n = flags.len();
     let tap = |r: usize, dx: usize| &rows[r][x0 + dx - 2..x0 + dx - 2 + n];

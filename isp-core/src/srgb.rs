@@ -148,12 +148,19 @@ impl EncodeLut {
     #[inline]
     pub fn lookup(&self, linear: u16) -> u32 {
         if self.max == 255 {
-            let run = usize::from(linear >> 4);
-            let offset = (linear & 15) as u8;
-            u32::from(self.base8[run]) + u32::from(offset >= self.step8[run])
+            self.lookup8(linear)
         } else {
             self.interpolated(linear)
         }
+    }
+
+    /// [`EncodeLut::lookup`] of a table for 8-bit output (a table for 16 bits gives
+    /// meaningless codes): the same code without the test of the depth.
+    #[inline(always)]
+    pub(crate) fn lookup8(&self, linear: u16) -> u32 {
+        let run = usize::from(linear >> 4);
+        let offset = (linear & 15) as u8;
+        u32::from(self.base8[run]) + u32::from(offset >= self.step8[run])
     }
 
     /// [`EncodeLut::lookup`] from the interpolated tables.
