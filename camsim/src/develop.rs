@@ -714,7 +714,7 @@ impl<'a> Runner<'a> {
             PipelinePath::Float(p, scratch) => {
                 let p = &*p;
                 parallel(bands, w, scratch, out, |rows, s, view| {
-                    p.run_input(input, rows, s, view)
+                    float_dispatch(p, input, rows, s, view)
                 })
             }
             PipelinePath::Fixed(p, scratch) => {
@@ -735,6 +735,23 @@ fn fixed_dispatch<O: OutputSample>(
     input: Input<'_>,
     rows: std::ops::Range<usize>,
     scratch: &mut [u16],
+    out: &mut RgbViewMut<'_, O>,
+) -> Result<(), IspError> {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has just been found to support AVX2, the one target feature
+        // `run_input_avx2` is compiled for.
+        return unsafe { pipeline.run_input_avx2(input, rows, scratch, out) };
+    }
+    pipeline.run_input(input, rows, scratch, out)
+}
+
+/// The float pipeline in the fastest build this CPU runs, as [`fixed_dispatch`].
+fn float_dispatch<O: OutputSample>(
+    pipeline: &FloatPipeline<'_>,
+    input: Input<'_>,
+    rows: std::ops::Range<usize>,
+    scratch: &mut [f32],
     out: &mut RgbViewMut<'_, O>,
 ) -> Result<(), IspError> {
     #[cfg(target_arch = "x86_64")]

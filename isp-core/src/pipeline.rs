@@ -512,7 +512,7 @@ impl<'a> FloatPipeline<'a> {
         scratch: &mut [f32],
         out: &mut RgbViewMut<'_, O>,
     ) -> Result<(), IspError> {
-        run_rows(self, Input::Mosaic(*raw), rows, scratch, out)
+        self.run_input(Input::Mosaic(*raw), rows, scratch, out)
     }
 
     /// As [`FloatPipeline::run`] for a linear (already demosaiced) frame.
@@ -523,11 +523,44 @@ impl<'a> FloatPipeline<'a> {
         scratch: &mut [f32],
         out: &mut RgbViewMut<'_, O>,
     ) -> Result<(), IspError> {
-        run_rows(self, Input::Linear(*frame), rows, scratch, out)
+        self.run_input(Input::Linear(*frame), rows, scratch, out)
     }
 
     /// As [`FloatPipeline::run`] for either kind of frame.
     pub fn run_input<O: OutputSample>(
+        &self,
+        input: Input<'_>,
+        rows: Range<usize>,
+        scratch: &mut [f32],
+        out: &mut RgbViewMut<'_, O>,
+    ) -> Result<(), IspError> {
+        run_planar_or_engine(self, input, rows, scratch, out)
+    }
+
+    /// As [`FloatPipeline::run_input`], compiled for AVX2: the same output, faster where the
+    /// configuration takes the planar schedule (see the module docs), whose loops then run
+    /// eight lanes wide.
+    ///
+    /// # Safety
+    ///
+    /// The CPU must support AVX2 (a function with a target feature is unsafe to call from code
+    /// compiled without it). Check first with `is_x86_feature_detected!("avx2")`.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    pub fn run_input_avx2<O: OutputSample>(
+        &self,
+        input: Input<'_>,
+        rows: Range<usize>,
+        scratch: &mut [f32],
+        out: &mut RgbViewMut<'_, O>,
+    ) -> Result<(), IspError> {
+        run_planar_or_engine(self, input, rows, scratch, out)
+    }
+
+    /// As [`FloatPipeline::run_input`], always on the general streaming engine, never the
+    /// planar schedule: for tests that check the schedule against the engine.
+    #[doc(hidden)]
+    pub fn run_input_general<O: OutputSample>(
         &self,
         input: Input<'_>,
         rows: Range<usize>,
@@ -853,24 +886,7 @@ impl<'a> FixedPipeline<'a> {
                 allowed: "u8 or u16 samples of the depth the pipeline was built for",
             });
         }
-        match input {
-            Input::Mosaic(raw) if planar::takes::<O>(self, &raw) => {
-                check_rows(self, input, &rows, out)?;
-                let needed =
-                    scratch_len(raw.mosaic().width()).ok_or(IspError::InvalidParameter {
-                        name: "width",
-                        allowed: "a size that fits in memory",
-                    })?;
-                if scratch.len() < needed {
-                    return Err(IspError::BufferTooSmall {
-                        needed,
-                        provided: scratch.len(),
-                    });
-                }
-                planar::run(self, &raw, rows, scratch, out)
-            }
-            _ => run_rows(self, input, rows, scratch, out),
-        }
+        run_planar_or_engine(self, input, rows, scratch, out)
     }
 
     /// As [`FixedPipeline::run_input`], compiled for AVX2: the same output, faster (the
@@ -1391,6 +1407,36 @@ impl<A: Path> Engine<'_, '_, A> {
             }
         }
         Ok(())
+    }
+}
+
+/// The planar schedule where it takes the configuration and the frame, else the general
+/// engine; inlined into each path's entries so that the AVX2 ones compile the schedule for
+/// AVX2.
+#[inline(always)]
+fn run_planar_or_engine<A: planar::Planar, O: OutputSample>(
+    path: &A,
+    input: Input<'_>,
+    rows: Range<usize>,
+    scratch: &mut [A::P],
+    out: &mut RgbViewMut<'_, O>,
+) -> Result<(), IspError> {
+    match input {
+        Input::Mosaic(raw) if planar::takes::<A, O>(path, &raw) => {
+            check_rows(path, input, &rows, out)?;
+            let needed = scratch_len(raw.mosaic().width()).ok_or(IspError::InvalidParameter {
+                name: "width",
+                allowed: "a size that fits in memory",
+            })?;
+            if scratch.len() < needed {
+                return Err(IspError::BufferTooSmall {
+                    needed,
+                    provided: scratch.len(),
+                });
+            }
+            planar::run(path, &raw, rows, scratch, out)
+        }
+        _ => run_rows(path, input, rows, scratch, out),
     }
 }
 

@@ -1,5 +1,5 @@
-//! The fixed path's planar schedule (the common camera pipeline over parity-split planar rows)
-//! is the general streaming engine, bit for bit: for any frame size, stride, pattern, levels,
+//! The planar schedule (the common camera pipeline over parity-split planar rows) is the
+//! general streaming engine, bit for bit, on both paths: for any frame size, stride, pattern, levels,
 //! defects, gains, colour matrix, demosaic method and band heights, in the baseline build and
 //! in the AVX2 build. Configurations the schedule does not take run on the engine either way,
 //! so they are checked too (the entry must not change them).
@@ -7,7 +7,7 @@
 use isp_core::demosaic::Method;
 use isp_core::dpc::{Defect, DpcConfig};
 use isp_core::frame::{RawFrame, RgbViewMut};
-use isp_core::pipeline::{FixedPipeline, Input, IspConfig, IDENTITY};
+use isp_core::pipeline::{FixedPipeline, FloatPipeline, Input, IspConfig, IDENTITY};
 use isp_core::CfaPattern;
 use proptest::prelude::*;
 
@@ -107,8 +107,9 @@ fn case() -> impl Strategy<Value = Case> {
 }
 
 /// The case's output through `run_input`, `run_input_avx2` (where the CPU has AVX2) and the
-/// general engine.
-fn outputs(c: &Case) -> Vec<(&'static str, Vec<u8>)> {
+/// general engine, for the fixed path and for the float path: `[fixed runs, float runs]`,
+/// each run named, the engine first.
+fn outputs(c: &Case) -> [Vec<(&'static str, Vec<u8>)>; 2] {
     let white = ((1u32 << c.bits) - 1) as u16;
     let raw = RawFrame::new(
         &c.data, c.w, c.h, c.stride, c.bits, c.pattern, c.black, white,
@@ -128,36 +129,72 @@ fn outputs(c: &Case) -> Vec<(&'static str, Vec<u8>)> {
         ccm: c.ccm,
         ..IspConfig::default()
     };
-    let pipeline = FixedPipeline::new(&config, 8).unwrap();
-    let mut scratch = vec![0u16; config.scratch_len(c.w, c.h).unwrap()];
     let input = Input::from(&raw);
-    let mut runs = vec![
+    let (w, h, bands) = (c.w, c.h, &c.bands);
+    let avx2 = avx2();
+    let fixed = FixedPipeline::new(&config, 8).unwrap();
+    let mut scratch = vec![0u16; fixed.scratch_len(w, h).unwrap()];
+    let mut fixed_runs = vec![
         (
-            "engine",
-            in_bands(c.w, c.h, &c.bands, |rows, view| {
-                pipeline
+            "fixed engine",
+            in_bands(w, h, bands, |rows, view| {
+                fixed
                     .run_input_general(input, rows, &mut scratch, view)
                     .unwrap()
             }),
         ),
         (
-            "run_input",
-            in_bands(c.w, c.h, &c.bands, |rows, view| {
-                pipeline.run_input(input, rows, &mut scratch, view).unwrap()
+            "fixed run_input",
+            in_bands(w, h, bands, |rows, view| {
+                fixed.run_input(input, rows, &mut scratch, view).unwrap()
+            }),
+        ),
+    ];
+    let float = FloatPipeline::new(&config).unwrap();
+    let mut scratch = vec![0f32; float.scratch_len(w, h).unwrap()];
+    let mut float_runs = vec![
+        (
+            "float engine",
+            in_bands(w, h, bands, |rows, view| {
+                float
+                    .run_input_general(input, rows, &mut scratch, view)
+                    .unwrap()
+            }),
+        ),
+        (
+            "float run_input",
+            in_bands(w, h, bands, |rows, view| {
+                float.run_input(input, rows, &mut scratch, view).unwrap()
             }),
         ),
     ];
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        runs.push((
-            "run_input_avx2",
-            in_bands(c.w, c.h, &c.bands, |rows, view| {
+    if avx2 {
+        let mut scratch = vec![0u16; fixed.scratch_len(w, h).unwrap()];
+        fixed_runs.push((
+            "fixed run_input_avx2",
+            in_bands(w, h, bands, |rows, view| {
                 // SAFETY: AVX2 was detected at run time.
-                unsafe { pipeline.run_input_avx2(input, rows, &mut scratch, view) }.unwrap()
+                unsafe { fixed.run_input_avx2(input, rows, &mut scratch, view) }.unwrap()
+            }),
+        ));
+        let mut scratch = vec![0f32; float.scratch_len(w, h).unwrap()];
+        float_runs.push((
+            "float run_input_avx2",
+            in_bands(w, h, bands, |rows, view| {
+                // SAFETY: AVX2 was detected at run time.
+                unsafe { float.run_input_avx2(input, rows, &mut scratch, view) }.unwrap()
             }),
         ));
     }
-    runs
+    [fixed_runs, float_runs]
+}
+
+fn avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    return std::arch::is_x86_feature_detected!("avx2");
+    #[cfg(not(target_arch = "x86_64"))]
+    false
 }
 
 proptest! {
@@ -165,11 +202,12 @@ proptest! {
 
     #[test]
     fn planar_schedule_is_the_engine_bit_for_bit(c in case()) {
-        let runs = outputs(&c);
-        let (_, engine) = &runs[0];
-        for (name, out) in &runs[1..] {
-            let first = out.iter().zip(engine).position(|(a, b)| a != b);
-            prop_assert!(first.is_none(), "{name} differs from the engine at sample {first:?}");
+        for runs in outputs(&c) {
+            let (_, engine) = &runs[0];
+            for (name, out) in &runs[1..] {
+                let first = out.iter().zip(engine).position(|(a, b)| a != b);
+                prop_assert!(first.is_none(), "{name} differs from the engine at sample {first:?}");
+            }
         }
     }
 }
@@ -205,16 +243,17 @@ fn planar_schedule_matches_the_engine_on_a_wide_frame() {
             knee: 1.0,
             bands: vec![5, 17],
         };
-        let runs = outputs(&c);
-        let (_, engine) = &runs[0];
-        let distinct: std::collections::BTreeSet<u8> = engine.iter().copied().collect();
-        assert!(
-            distinct.len() > 100,
-            "{method:?}: {} distinct codes",
-            distinct.len()
-        );
-        for (name, out) in &runs[1..] {
-            assert!(out == engine, "{method:?}: {name} differs from the engine");
+        for runs in outputs(&c) {
+            let (engine_name, engine) = &runs[0];
+            let distinct: std::collections::BTreeSet<u8> = engine.iter().copied().collect();
+            assert!(
+                distinct.len() > 100,
+                "{method:?}: {engine_name} gives {} distinct codes",
+                distinct.len()
+            );
+            for (name, out) in &runs[1..] {
+                assert!(out == engine, "{method:?}: {name} differs from the engine");
+            }
         }
     }
 }

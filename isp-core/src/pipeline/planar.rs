@@ -1,8 +1,9 @@
 //! The common camera pipeline (defect correction, black level, gain, white balance, bilinear
-//! or MHC, colour matrix, 8-bit sRGB) on the fixed path, scheduled over planar rows so that
-//! every stage but the encoding is a loop over contiguous slices that the compiler
-//! vectorises. The arithmetic is the general engine's, step for step; only the layout and
-//! the order of the loops differ, so the output is bit-identical (tested).
+//! or MHC, colour matrix, 8-bit sRGB), scheduled over planar rows so that every stage but the
+//! encoding is a loop over contiguous slices that the compiler vectorises. Both paths run it.
+//! The arithmetic is the general engine's, operation for operation (the float sums in the
+//! same order); only the layout and the order of the loops differ, so the output is
+//! bit-identical (tested).
 //!
 //! - A prepared mosaic row is held as its even columns, then its odd columns, each with one
 //!   reflected sample on either side ([`Halves`]). Within one half every sample has the same
@@ -10,47 +11,241 @@
 //!   filter at every site of a half reads the same offsets: `x - 2`, `x`, `x + 2` of the
 //!   site's own half and `x - 1`, `x + 1` of the other half. The padding makes the frame's
 //!   reflect-101 border the same loop as the interior.
-//! - The demosaiced row is three planes (R, G, B), each even half then odd half; the colour
-//!   matrix runs on the planes; the encoding (two byte-table loads per channel) writes the
-//!   interleaved output.
-//! - The pointwise stage and the colour matrix keep the general engine's `u64`/`i64`
-//!   results in `u32`/`i32` lanes by splitting each Q16 constant into its integer and
-//!   fraction parts (see [`MulQ16`] and [`CcmSplit`]), which is exact.
+//! - The demosaiced row is three planes (R, G, B), each even half then odd half, one filter
+//!   (a tap table of `demosaic`) per plane and half; the colour matrix runs on the planes; the
+//!   encoding (table loads, the one gather) writes the interleaved output.
+//! - The fixed path keeps the general engine's `u64`/`i64` products in `u32`/`i32` lanes by
+//!   splitting each Q16 constant into its integer and fraction parts ([`MulQ16`],
+//!   [`CcmSplit`]), which is exact.
 
 use core::ops::Range;
 
-use super::{FixedPipeline, OutputSample, CHUNK, MOSAIC_ROWS};
+use super::{FixedPipeline, FloatPipeline, OutputSample, Path, CHUNK, IDENTITY, MOSAIC_ROWS};
 use crate::demosaic::{reflect, Method};
 use crate::dpc;
-use crate::frame::{RawFrame, RgbViewMut};
-use crate::{CfaColour, CfaPattern, IspError};
+use crate::frame::{RawFrame, RgbViewMut, Sample};
+use crate::{ccm, CfaColour, CfaPattern, IspError};
 
 /// Narrowest frame the planar schedule takes; the padding reflects within the first and last
 /// four columns.
 const MIN_WIDTH: usize = 8;
 
-/// Scratch elements the schedule uses: the five padded mosaic rows and one planar RGB row
-/// (within [`super::scratch_len`] for every width it takes).
-fn scratch_needed(w: usize) -> usize {
-    MOSAIC_ROWS * Halves::new(w).len() + 3 * w
+/// What the planar schedule needs of a path beyond the engine's [`Path`].
+pub(super) trait Planar: Path {
+    /// The pointwise stage's constants for one CFA position.
+    type Steps: Copy;
+    /// The colour matrix in the form the planar loop applies.
+    type Matrix;
+    /// Whether everything the general engine would do to `raw` with output samples `O` is
+    /// among the planar schedule's stages.
+    fn planar_takes<O: OutputSample>(&self, raw: &RawFrame<'_>) -> bool;
+    /// The pointwise constants of each CFA position, `[row parity][column parity]`.
+    fn steps(&self, raw: &RawFrame<'_>) -> [[Self::Steps; 2]; 2];
+    /// Black level, normalisation, gain and white balance of one corrected raw sample.
+    fn pointwise(steps: Self::Steps, raw: u16) -> Self::P;
+    /// The colour matrix, if it is on.
+    fn matrix(&self) -> Option<Self::Matrix>;
+    /// The colour matrix at one pixel.
+    fn colour_matrix(m: &Self::Matrix, rgb: [Self::P; 3]) -> [Self::P; 3];
+    /// The 8-bit sRGB code of a linear value.
+    fn code8(&self, v: Self::P) -> u32;
 }
 
-/// Whether the planar schedule runs `path` on `raw` with output samples `O`: everything the
-/// general engine would do is among the stages above.
-pub(super) fn takes<O: OutputSample>(path: &FixedPipeline<'_>, raw: &RawFrame<'_>) -> bool {
+/// Whether the planar schedule runs `path` on `raw` for output samples `O`, with the frame
+/// wide and high enough.
+pub(super) fn takes<A: Planar, O: OutputSample>(path: &A, raw: &RawFrame<'_>) -> bool {
     let mosaic = raw.mosaic();
     O::BITS == 8
-        && matches!(path.method, Method::Bilinear | Method::Mhc)
+        && matches!(path.method(), Method::Bilinear | Method::Mhc)
         && mosaic.width() >= MIN_WIDTH
         && mosaic.height() >= 3
-        && path.lsc.is_none()
-        && path.distortion.is_none()
-        && path.inverse_denoise.is_none()
-        && path.highlights.is_none()
-        && path.saturation_q.is_none()
-        && path.tone_lut.is_none()
-        && path.sharpen_q12.is_none()
-        && path.encode.max() == 255
+        && path.planar_takes::<O>(raw)
+}
+
+/// `min(round(v * k / 2^16), 65535)` for a Q16 constant `k < 2^32` and `v < 2^16`, in `u32`
+/// lanes: `k = hi * 2^16 + lo` makes it `v * hi + round(v * lo / 2^16)`, every term below
+/// 2^32. The same value as the general engine's `u64` form.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct MulQ16 {
+    hi: u32,
+    lo: u32,
+}
+
+impl MulQ16 {
+    fn new(k: u64) -> Self {
+        Self {
+            hi: (k >> 16) as u32,
+            lo: (k & 0xFFFF) as u32,
+        }
+    }
+
+    /// Multiplying by 1.0, which is exact and changes nothing.
+    const ONE: Self = Self { hi: 1, lo: 0 };
+
+    #[inline(always)]
+    fn apply(self, v: u32) -> u32 {
+        (v * self.hi + ((v * self.lo + (1 << 15)) >> 16)).min(65535)
+    }
+}
+
+/// The fixed path's pointwise stage for one CFA position.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct FixedSteps {
+    black: u16,
+    normalise: MulQ16,
+    gain: MulQ16,
+    wb: MulQ16,
+}
+
+/// A Q16 colour matrix split as [`MulQ16`] splits a constant: each coefficient
+/// `m = hi * 2^16 + lo` with `lo` in `[0, 2^16)`, so `round(sum m_c v_c / 2^16)` is
+/// `sum hi_c v_c` plus the rounded sum of the `lo_c v_c`, whose high and low halves are
+/// added apart. Exact: the general engine's `i64` result in `u32` and `i32` lanes.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct CcmSplit {
+    hi: [[i32; 3]; 3],
+    lo: [[u32; 3]; 3],
+}
+
+impl CcmSplit {
+    fn new(m: &[[i32; 3]; 3]) -> Self {
+        Self {
+            hi: m.map(|row| row.map(|k| k >> 16)),
+            lo: m.map(|row| row.map(|k| (k & 0xFFFF) as u32)),
+        }
+    }
+
+    /// Output channel `c` of the pixel `v`.
+    #[inline(always)]
+    fn channel(&self, c: usize, v: [u32; 3]) -> u16 {
+        let (hi, lo) = (self.hi[c], self.lo[c]);
+        // Coefficients are within [-8, 8), so |hi| <= 8 and these sums stay far from overflow.
+        let whole = hi[0] * v[0] as i32 + hi[1] * v[1] as i32 + hi[2] * v[2] as i32;
+        let p = [lo[0] * v[0], lo[1] * v[1], lo[2] * v[2]];
+        let high = (p[0] >> 16) + (p[1] >> 16) + (p[2] >> 16);
+        let low = (p[0] & 0xFFFF) + (p[1] & 0xFFFF) + (p[2] & 0xFFFF);
+        let fraction = high + ((low + (1 << 15)) >> 16);
+        (whole + fraction as i32).clamp(0, 65535) as u16
+    }
+}
+
+impl Planar for FixedPipeline<'_> {
+    type Steps = FixedSteps;
+    type Matrix = CcmSplit;
+
+    fn planar_takes<O: OutputSample>(&self, _raw: &RawFrame<'_>) -> bool {
+        self.lsc.is_none()
+            && self.distortion.is_none()
+            && self.inverse_denoise.is_none()
+            && self.highlights.is_none()
+            && self.saturation_q.is_none()
+            && self.tone_lut.is_none()
+            && self.sharpen_q12.is_none()
+            && self.encode.max() == 255
+    }
+
+    fn steps(&self, raw: &RawFrame<'_>) -> [[FixedSteps; 2]; 2] {
+        let pattern = raw.mosaic().pattern();
+        core::array::from_fn(|ry| {
+            core::array::from_fn(|rx| {
+                let black = raw.black_at(rx, ry);
+                let colour = pattern.colour_at(rx, ry).index();
+                FixedSteps {
+                    black,
+                    normalise: MulQ16::new(super::recip_q16(raw.white_level() - black)),
+                    gain: self.gain_q16.map_or(MulQ16::ONE, MulQ16::new),
+                    wb: self
+                        .wb_q16
+                        .map_or(MulQ16::ONE, |wb| MulQ16::new(wb[colour])),
+                }
+            })
+        })
+    }
+
+    #[inline(always)]
+    fn pointwise(steps: FixedSteps, raw: u16) -> u16 {
+        let d = u32::from(raw.saturating_sub(steps.black));
+        steps.wb.apply(steps.gain.apply(steps.normalise.apply(d))) as u16
+    }
+
+    fn matrix(&self) -> Option<CcmSplit> {
+        self.ccm_q.as_ref().map(CcmSplit::new)
+    }
+
+    #[inline(always)]
+    fn colour_matrix(m: &CcmSplit, rgb: [u16; 3]) -> [u16; 3] {
+        let v = rgb.map(u32::from);
+        [m.channel(0, v), m.channel(1, v), m.channel(2, v)]
+    }
+
+    #[inline(always)]
+    fn code8(&self, v: u16) -> u32 {
+        self.encode.lookup8(v)
+    }
+}
+
+/// The float path's pointwise stage for one CFA position: black, white minus black, ISO gain
+/// and white-balance gain (a gain of 1 multiplies exactly and clamps nothing, so every
+/// step runs).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct FloatSteps {
+    black: u16,
+    range: f32,
+    gain: f32,
+    wb: f32,
+}
+
+impl Planar for FloatPipeline<'_> {
+    type Steps = FloatSteps;
+    type Matrix = [[f32; 3]; 3];
+
+    fn planar_takes<O: OutputSample>(&self, _raw: &RawFrame<'_>) -> bool {
+        let c = &self.config;
+        c.lsc.is_none()
+            && c.active_distortion().is_none()
+            && c.denoise == 0.0
+            && c.highlight_knee >= 1.0
+            && c.tone.saturation_is_identity()
+            && c.tone.curve_is_identity()
+            && c.sharpen == 0.0
+    }
+
+    fn steps(&self, raw: &RawFrame<'_>) -> [[FloatSteps; 2]; 2] {
+        let c = &self.config;
+        let pattern = raw.mosaic().pattern();
+        core::array::from_fn(|ry| {
+            core::array::from_fn(|rx| {
+                let black = raw.black_at(rx, ry);
+                FloatSteps {
+                    black,
+                    range: raw.white_level() as f32 - black as f32,
+                    gain: c.gain,
+                    wb: c.wb_gains[pattern.colour_at(rx, ry).index()],
+                }
+            })
+        })
+    }
+
+    #[inline(always)]
+    fn pointwise(steps: FloatSteps, raw: u16) -> f32 {
+        // FloatPipeline::pointwise without shading, every step taken.
+        let v = (raw.saturating_sub(steps.black) as f32 / steps.range).clamp(0.0, 1.0);
+        (steps.wb * (steps.gain * v).min(1.0)).min(1.0)
+    }
+
+    fn matrix(&self) -> Option<[[f32; 3]; 3]> {
+        (self.config.ccm != IDENTITY).then_some(self.config.ccm)
+    }
+
+    #[inline(always)]
+    fn colour_matrix(m: &[[f32; 3]; 3], rgb: [f32; 3]) -> [f32; 3] {
+        ccm::apply_f32(m, rgb)
+    }
+
+    #[inline(always)]
+    fn code8(&self, v: f32) -> u32 {
+        u32::from(self.codes8.code(v))
+    }
 }
 
 /// A prepared row's layout: `[E(-1), E(0) .. E(even-1), E(even), O(-1), O(0) .. O(odd-1),
@@ -79,252 +274,245 @@ impl Halves {
         self.even + 2
     }
 
-    /// Index of `E(i)`.
-    fn even_at(i: usize) -> usize {
-        1 + i
-    }
-
     /// Writes the four reflected samples of a row whose halves are filled (width at least 4).
-    fn pad(self, row: &mut [u16]) {
+    fn pad<T: Copy>(self, row: &mut [T]) {
         let (ne, no, o) = (self.even, self.odd, self.odd_start());
-        // Column -2 is column 2, column -1 is column 1.
-        row[0] = row[Self::even_at(1)];
+        // E(i) is at 1 + i, O(i) at o + 1 + i. Column -2 is column 2, column -1 is column 1.
+        row[0] = row[2];
         row[o] = row[o + 1];
         if ne == no {
             // Even width: column w is w - 2 (even), column w + 1 is w - 3 (odd).
-            row[Self::even_at(ne)] = row[Self::even_at(ne - 1)];
-            row[o + 1 + no] = row[o + 1 + no - 2];
+            row[1 + ne] = row[ne];
+            row[o + 1 + no] = row[o + no - 1];
         } else {
             // Odd width: column w is w - 2 (odd), column w + 1 is w - 3 (even).
-            row[o + 1 + no] = row[o + 1 + no - 1];
-            row[Self::even_at(ne)] = row[Self::even_at(ne - 2)];
+            row[o + 1 + no] = row[o + no];
+            row[1 + ne] = row[ne - 1];
         }
     }
 
-    /// The sites of one column parity: `(same, other, n)`, where `same[i + 1]` is site `i`
-    /// (so `same[i]` and `same[i + 2]` are two columns left and right) and `other[i]`,
-    /// `other[i + 1]` are the columns left and right of it.
-    fn sites(self, row: &[u16], parity: usize) -> (&[u16], &[u16], usize) {
+    /// The sites of one column parity as `(same, other)`: `same[i + 1]` is site `i` (so
+    /// `same[i]` and `same[i + 2]` are two columns left and right) and `other[i]` and
+    /// `other[i + 1]` the columns left and right of it.
+    fn sites<T>(self, row: &[T], parity: usize) -> (&[T], &[T]) {
         let o = self.odd_start();
         match parity {
-            0 => (&row[..self.even + 2], &row[o..o + self.even + 1], self.even),
-            _ => (&row[o..o + self.odd + 2], &row[1..self.odd + 2], self.odd),
+            0 => (&row[..self.even + 2], &row[o..o + self.even + 1]),
+            _ => (&row[o..o + self.odd + 2], &row[1..self.odd + 2]),
         }
     }
 }
 
-/// `min(round(v * k / 2^16), 65535)` for a Q16 constant `k < 2^32` and `v < 2^16`, in `u32`
-/// lanes: `k = hi * 2^16 + lo` makes it `v * hi + round(v * lo / 2^16)`, every term below
-/// 2^32. The same value as the general engine's `u64` form.
-#[derive(Debug, Clone, Copy)]
-struct MulQ16 {
-    hi: u32,
-    lo: u32,
+/// Scratch elements the schedule uses: five padded mosaic rows and one planar RGB row
+/// (within [`super::scratch_len`] for every width it takes).
+fn scratch_needed(w: usize) -> usize {
+    MOSAIC_ROWS * Halves::new(w).len() + 3 * w
 }
 
-impl MulQ16 {
-    fn new(k: u64) -> Self {
-        Self {
-            hi: (k >> 16) as u32,
-            lo: (k & 0xFFFF) as u32,
-        }
-    }
+/// The `(same, other)` slices of one column parity in five rows, `rows[k]` being row
+/// `y + k - 2` (see [`Halves::sites`]).
+type SiteRows<'r, T> = [(&'r [T], &'r [T]); 5];
 
-    /// Multiplying by 1.0, which is exact and changes nothing.
-    const ONE: Self = Self { hi: 1, lo: 0 };
+/// The 5x5 neighbourhood of site `i` of a half, by name: the centre, left and right (`l`,
+/// `r`, `ll`, `rr`), up and down (`u`, `d`, `uu`, `dd`) and the diagonals.
+#[derive(Clone, Copy)]
+struct Neighbours<T> {
+    c: T,
+    l: T,
+    r: T,
+    ll: T,
+    rr: T,
+    u: T,
+    d: T,
+    uu: T,
+    dd: T,
+    ul: T,
+    ur: T,
+    dl: T,
+    dr: T,
+}
 
+/// The sum `0 + v1 * k1 + v2 * k2 + ...` in the accumulator, left to right: the order
+/// `demosaic` forms its sums in, which the float path's rounding depends on.
+macro_rules! weighted_sum {
+    ($t:ty; $($v:expr => $k:expr),+ $(,)?) => {
+        <$t as Sample>::Acc::default() $( + $v.weighted($k) )+
+    };
+}
+
+/// One demosaic filter: a tap table of `demosaic` (or a sum of `bilinear_row`) written out
+/// over [`Neighbours`], its terms in the table's order (the tests check the schedule against the engine bit for bit). Written
+/// out rather than looped over the table: LLVM works out the cost of unrolling a loop of at
+/// most ten iterations, so a loop over an eleven-tap table stayed a loop with a branch per tap
+/// and nothing was vectorised (5x slower).
+#[derive(Clone, Copy)]
+enum Filter {
+    /// `demosaic::MHC_CHROMA_HORIZONTAL`.
+    MhcHorizontal,
+    /// `demosaic::MHC_CHROMA_VERTICAL`.
+    MhcVertical,
+    /// `demosaic::MHC_G_AT_CHROMA`.
+    MhcGreen,
+    /// `demosaic::MHC_OPPOSITE`.
+    MhcOpposite,
+    /// `bilinear_row`'s chroma at green from left and right.
+    BilinearHorizontal,
+    /// `bilinear_row`'s chroma at green from above and below.
+    BilinearVertical,
+    /// `bilinear_row`'s green at red or blue.
+    BilinearGreen,
+    /// `bilinear_row`'s other chroma at red or blue.
+    BilinearOpposite,
+}
+
+impl Filter {
     #[inline(always)]
-    fn apply(self, v: u32) -> u32 {
-        (v * self.hi + ((v * self.lo + (1 << 15)) >> 16)).min(65535)
+    fn apply<T: Sample>(self, n: Neighbours<T>) -> T {
+        let Neighbours {
+            c,
+            l,
+            r,
+            ll,
+            rr,
+            u,
+            d,
+            uu,
+            dd,
+            ul,
+            ur,
+            dl,
+            dr,
+        } = n;
+        let (sum, shift) = match self {
+            Self::MhcHorizontal => (
+                weighted_sum!(T; c => 10, l => 8, r => 8, ll => -2, rr => -2, ul => -2,
+                    ur => -2, dl => -2, dr => -2, uu => 1, dd => 1),
+                4,
+            ),
+            Self::MhcVertical => (
+                weighted_sum!(T; c => 10, u => 8, d => 8, uu => -2, dd => -2, ul => -2,
+                    ur => -2, dl => -2, dr => -2, ll => 1, rr => 1),
+                4,
+            ),
+            Self::MhcGreen => (
+                weighted_sum!(T; c => 8, u => 4, d => 4, l => 4, r => 4, uu => -2, dd => -2,
+                    ll => -2, rr => -2),
+                4,
+            ),
+            Self::MhcOpposite => (
+                weighted_sum!(T; c => 12, ul => 4, ur => 4, dl => 4, dr => 4, uu => -3,
+                    dd => -3, ll => -3, rr => -3),
+                4,
+            ),
+            Self::BilinearHorizontal => (weighted_sum!(T; l => 1, r => 1), 1),
+            Self::BilinearVertical => (weighted_sum!(T; u => 1, d => 1), 1),
+            Self::BilinearGreen => (weighted_sum!(T; u => 1, d => 1, l => 1, r => 1), 2),
+            Self::BilinearOpposite => (weighted_sum!(T; ul => 1, ur => 1, dl => 1, dr => 1), 2),
+        };
+        T::scaled_down(sum, shift)
     }
 }
 
-/// What the pointwise stage does to every sample of one CFA position.
-#[derive(Debug, Clone, Copy)]
-struct Pointwise {
-    black: u16,
-    normalise: MulQ16,
-    gain: MulQ16,
-    wb: MulQ16,
-}
-
-impl Pointwise {
-    #[inline(always)]
-    fn apply(self, raw: u16) -> u16 {
-        let d = u32::from(raw.saturating_sub(self.black));
-        self.wb.apply(self.gain.apply(self.normalise.apply(d))) as u16
-    }
-}
-
-/// A Q16 colour matrix split as [`MulQ16`] splits a constant: each coefficient
-/// `m = hi * 2^16 + lo` with `lo` in `[0, 2^16)`, so `round(sum m_c v_c / 2^16)` is
-/// `sum hi_c v_c` plus the rounded sum of the `lo_c v_c`, whose high and low halves are
-/// added apart. Exact: the general engine's `i64` result in `u32` and `i32` lanes.
-#[derive(Debug, Clone, Copy)]
-struct CcmSplit {
-    hi: [[i32; 3]; 3],
-    lo: [[u32; 3]; 3],
-}
-
-impl CcmSplit {
-    fn new(m: &[[i32; 3]; 3]) -> Self {
-        Self {
-            hi: m.map(|row| row.map(|k| k >> 16)),
-            lo: m.map(|row| row.map(|k| (k & 0xFFFF) as u32)),
-        }
-    }
-
-    /// Output channel `c` of the pixel `v`.
-    #[inline(always)]
-    fn channel(&self, c: usize, v: [u32; 3]) -> u16 {
-        let (hi, lo) = (self.hi[c], self.lo[c]);
-        // Coefficients are within [-8, 8), so |hi| <= 8 and these sums stay far from overflow.
-        let whole = hi[0] * v[0] as i32 + hi[1] * v[1] as i32 + hi[2] * v[2] as i32;
-        let p = [lo[0] * v[0], lo[1] * v[1], lo[2] * v[2]];
-        let high = (p[0] >> 16) + (p[1] >> 16) + (p[2] >> 16);
-        let low = (p[0] & 0xFFFF) + (p[1] & 0xFFFF) + (p[2] & 0xFFFF);
-        let fraction = high + ((low + (1 << 15)) >> 16);
-        (whole + fraction as i32).clamp(0, 65535) as u16
-    }
-}
-
-/// `round(sum / 2^shift)` clamped to `u16`, as [`crate::frame::Sample::scaled_down`] does.
+/// Two filters at every site of a half, into `first` and `second`.
 #[inline(always)]
-fn scaled_down(sum: i32, shift: u32) -> u16 {
-    ((sum + ((1 << shift) >> 1)) >> shift).clamp(0, 65535) as u16
-}
-
-/// Row `y`'s sites of one column parity in five rows `rows[k]` = row `y + k - 2`, as
-/// `(same, other)` slices of [`Halves::sites`].
-type SiteRows<'r> = [(&'r [u16], &'r [u16]); 5];
-
-/// MHC at the green sites of a half: the chroma left and right into `horizontal`, the one
-/// above and below into `vertical` (the taps of `demosaic`'s `MHC_CHROMA_HORIZONTAL` and
-/// `MHC_CHROMA_VERTICAL`; integer sums, so their order does not matter).
-#[inline(always)]
-fn mhc_green(rows: SiteRows<'_>, own: &mut [u16], horizontal: &mut [u16], vertical: &mut [u16]) {
-    let n = own.len();
-    let (horizontal, vertical) = (&mut horizontal[..n], &mut vertical[..n]);
-    let s = rows.map(|r| &r.0[..n + 2]);
-    let t = rows.map(|r| &r.1[..n + 1]);
-    for i in 0..n {
-        let v = |r: &[u16], k: usize| i32::from(r[k]);
-        let c = i + 1;
-        let centre = v(s[2], c);
-        let left_right = v(t[2], i) + v(t[2], i + 1);
-        let up_down = v(s[1], c) + v(s[3], c);
-        let diagonals = v(t[1], i) + v(t[1], i + 1) + v(t[3], i) + v(t[3], i + 1);
-        let far_left_right = v(s[2], i) + v(s[2], i + 2);
-        let far_up_down = v(s[0], c) + v(s[4], c);
-        own[i] = s[2][c];
-        horizontal[i] = scaled_down(
-            10 * centre + 8 * left_right - 2 * far_left_right - 2 * diagonals + far_up_down,
-            4,
-        );
-        vertical[i] = scaled_down(
-            10 * centre + 8 * up_down - 2 * far_up_down - 2 * diagonals + far_left_right,
-            4,
-        );
-    }
-}
-
-/// MHC at the red or blue sites of a half: green into `green`, the other chroma into
-/// `opposite` (`MHC_G_AT_CHROMA` and `MHC_OPPOSITE`).
-#[inline(always)]
-fn mhc_chroma(rows: SiteRows<'_>, own: &mut [u16], green: &mut [u16], opposite: &mut [u16]) {
-    let n = own.len();
-    let (green, opposite) = (&mut green[..n], &mut opposite[..n]);
-    let s = rows.map(|r| &r.0[..n + 2]);
-    let t = rows.map(|r| &r.1[..n + 1]);
-    for i in 0..n {
-        let v = |r: &[u16], k: usize| i32::from(r[k]);
-        let c = i + 1;
-        let centre = v(s[2], c);
-        let cross = v(s[1], c) + v(s[3], c) + v(t[2], i) + v(t[2], i + 1);
-        let diagonals = v(t[1], i) + v(t[1], i + 1) + v(t[3], i) + v(t[3], i + 1);
-        let far = v(s[0], c) + v(s[4], c) + v(s[2], i) + v(s[2], i + 2);
-        own[i] = s[2][c];
-        green[i] = scaled_down(8 * centre + 4 * cross - 2 * far, 4);
-        opposite[i] = scaled_down(12 * centre + 4 * diagonals - 3 * far, 4);
-    }
-}
-
-/// Bilinear at the green sites of a half (`demosaic`'s `bilinear_row`).
-#[inline(always)]
-fn bilinear_green(
-    rows: SiteRows<'_>,
-    own: &mut [u16],
-    horizontal: &mut [u16],
-    vertical: &mut [u16],
+fn filter_pair<T: Sample>(
+    rows: SiteRows<'_, T>,
+    filters: [Filter; 2],
+    first: &mut [T],
+    second: &mut [T],
 ) {
-    let n = own.len();
-    let (horizontal, vertical) = (&mut horizontal[..n], &mut vertical[..n]);
+    let n = first.len();
+    let second = &mut second[..n];
     let s = rows.map(|r| &r.0[..n + 2]);
     let t = rows.map(|r| &r.1[..n + 1]);
-    for i in 0..n {
-        let v = |r: &[u16], k: usize| i32::from(r[k]);
-        let c = i + 1;
-        own[i] = s[2][c];
-        horizontal[i] = scaled_down(v(t[2], i) + v(t[2], i + 1), 1);
-        vertical[i] = scaled_down(v(s[1], c) + v(s[3], c), 1);
+    for (i, (a, b)) in first.iter_mut().zip(second.iter_mut()).enumerate() {
+        let around = Neighbours {
+            c: s[2][i + 1],
+            l: t[2][i],
+            r: t[2][i + 1],
+            ll: s[2][i],
+            rr: s[2][i + 2],
+            u: s[1][i + 1],
+            d: s[3][i + 1],
+            uu: s[0][i + 1],
+            dd: s[4][i + 1],
+            ul: t[1][i],
+            ur: t[1][i + 1],
+            dl: t[3][i],
+            dr: t[3][i + 1],
+        };
+        *a = filters[0].apply(around);
+        *b = filters[1].apply(around);
     }
 }
 
-/// Bilinear at the red or blue sites of a half.
+/// Demosaics row `y` from its five prepared rows into `planes` (R, G, B, each `w` long: even
+/// half, then odd half).
 #[inline(always)]
-fn bilinear_chroma(rows: SiteRows<'_>, own: &mut [u16], green: &mut [u16], opposite: &mut [u16]) {
-    let n = own.len();
-    let (green, opposite) = (&mut green[..n], &mut opposite[..n]);
-    let s = rows.map(|r| &r.0[..n + 2]);
-    let t = rows.map(|r| &r.1[..n + 1]);
-    for i in 0..n {
-        let v = |r: &[u16], k: usize| i32::from(r[k]);
-        let c = i + 1;
-        own[i] = s[2][c];
-        let cross = v(s[1], c) + v(s[3], c) + v(t[2], i) + v(t[2], i + 1);
-        green[i] = scaled_down(cross, 2);
-        let diagonals = v(t[1], i) + v(t[1], i + 1) + v(t[3], i) + v(t[3], i + 1);
-        opposite[i] = scaled_down(diagonals, 2);
-    }
-}
-
-/// Splits `planes` (R, G, B, each `w` long: even half, then odd half) into the half of
-/// `parity` of each, ordered as the site kernels want them: the site's own colour, then the
-/// two it lacks (horizontal then vertical at green; green then the opposite chroma at red or
-/// blue).
-fn site_planes(
-    planes: &mut [u16],
+fn demosaic_row<T: Sample>(
+    method: Method,
+    source: [&[T]; 5],
     halves: Halves,
-    parity: usize,
-    own: CfaColour,
-    horizontal: CfaColour,
-) -> [&mut [u16]; 3] {
+    pattern: CfaPattern,
+    y: usize,
+    planes: &mut [T],
+) {
     let w = halves.even + halves.odd;
-    let (r, rest) = planes.split_at_mut(w);
-    let (g, b) = rest.split_at_mut(w);
-    fn half(p: &mut [u16], parity: usize, even: usize) -> &mut [u16] {
-        match parity {
-            0 => &mut p[..even],
-            _ => &mut p[even..],
+    for parity in 0..2 {
+        let rows: SiteRows<'_, T> = source.map(|r| halves.sites(r, parity));
+        let own = pattern.colour_at(parity, y);
+        let half = |c: CfaColour| match parity {
+            0 => c.index() * w..c.index() * w + halves.even,
+            _ => c.index() * w + halves.even..(c.index() + 1) * w,
+        };
+        planes[half(own)].copy_from_slice(&rows[2].0[1..rows[2].0.len() - 1]);
+        // The two colours the site lacks, and the filters that give them.
+        let (first, second) = match own {
+            CfaColour::Green => (
+                pattern.colour_at(parity + 1, y),
+                pattern.colour_at(parity, y + 1),
+            ),
+            _ => (CfaColour::Green, pattern.colour_at(parity + 1, y + 1)),
+        };
+        let (lo, hi) = (half(first), half(second));
+        // Split the planes so both outputs are borrowed at once; `first` and `second` differ.
+        let (a, b) = if lo.start < hi.start {
+            let (head, tail) = planes.split_at_mut(hi.start);
+            (&mut head[lo], &mut tail[..hi.len()])
+        } else {
+            let (head, tail) = planes.split_at_mut(lo.start);
+            (&mut tail[..lo.len()], &mut head[hi])
+        };
+        // Each arm names its filters, so that once inlined the loop holds only their sums.
+        match (method, own) {
+            (Method::Mhc, CfaColour::Green) => {
+                filter_pair(rows, [Filter::MhcHorizontal, Filter::MhcVertical], a, b)
+            }
+            (Method::Mhc, _) => filter_pair(rows, [Filter::MhcGreen, Filter::MhcOpposite], a, b),
+            (_, CfaColour::Green) => filter_pair(
+                rows,
+                [Filter::BilinearHorizontal, Filter::BilinearVertical],
+                a,
+                b,
+            ),
+            (_, _) => filter_pair(
+                rows,
+                [Filter::BilinearGreen, Filter::BilinearOpposite],
+                a,
+                b,
+            ),
         }
-    }
-    let [r, g, b] = [r, g, &mut b[..w]].map(|p| half(p, parity, halves.even));
-    match (own, horizontal) {
-        (CfaColour::Green, CfaColour::Red) => [g, r, b],
-        (CfaColour::Green, _) => [g, b, r],
-        (CfaColour::Red, _) => [r, g, b],
-        (CfaColour::Blue, _) => [b, g, r],
     }
 }
 
 /// Runs rows `rows` of `raw` through `path` into `out` on the planar schedule; the caller
-/// has checked [`takes`], the rows, the output's size and the scratch's length.
+/// has checked [`takes`], the rows and the output's size.
 #[inline(always)]
-pub(super) fn run<O: OutputSample>(
-    path: &FixedPipeline<'_>,
+pub(super) fn run<A: Planar, O: OutputSample>(
+    path: &A,
     raw: &RawFrame<'_>,
     rows: Range<usize>,
-    scratch: &mut [u16],
+    scratch: &mut [A::P],
     out: &mut RgbViewMut<'_, O>,
 ) -> Result<(), IspError> {
     let mosaic = raw.mosaic();
@@ -339,8 +527,8 @@ pub(super) fn run<O: OutputSample>(
     }
     let (ring, rest) = scratch.split_at_mut(MOSAIC_ROWS * row_len);
     let planes = &mut rest[..3 * w];
-    let steps = pointwise_steps(path, raw);
-    let ccm = path.ccm_q.as_ref().map(CcmSplit::new);
+    let steps = path.steps(raw);
+    let matrix = path.matrix();
     let mut tags = [usize::MAX; MOSAIC_ROWS];
     for y in rows.clone() {
         for dm in -2..=2isize {
@@ -348,53 +536,37 @@ pub(super) fn run<O: OutputSample>(
             let slot = my % MOSAIC_ROWS;
             if tags[slot] != my {
                 let row = &mut ring[slot * row_len..(slot + 1) * row_len];
-                prepare_row(path, raw, my, steps[my & 1], halves, row);
+                prepare_row::<A>(path.dpc(), raw, my, steps[my & 1], halves, row);
                 tags[slot] = my;
             }
         }
-        let ring: &[u16] = ring;
-        let source: [&[u16]; 5] = core::array::from_fn(|k| {
+        let ring: &[A::P] = ring;
+        let source: [&[A::P]; 5] = core::array::from_fn(|k| {
             let slot = reflect(y as isize + k as isize - 2, h) % MOSAIC_ROWS;
             &ring[slot * row_len..(slot + 1) * row_len]
         });
-        demosaic_row(path.method, source, halves, pattern, y, planes);
-        if let Some(m) = &ccm {
-            colour_matrix(m, planes, w);
+        demosaic_row(path.method(), source, halves, pattern, y, planes);
+        if let Some(m) = &matrix {
+            let (r, rest) = planes.split_at_mut(w);
+            let (g, b) = rest.split_at_mut(w);
+            for ((r, g), b) in r.iter_mut().zip(g.iter_mut()).zip(b.iter_mut()) {
+                [*r, *g, *b] = A::colour_matrix(m, [*r, *g, *b]);
+            }
         }
         encode_row(path, planes, halves, out.row_mut(y - rows.start));
     }
     Ok(())
 }
 
-/// The pointwise constants of the two CFA positions of each row parity: `[row][column]`.
-fn pointwise_steps(path: &FixedPipeline<'_>, raw: &RawFrame<'_>) -> [[Pointwise; 2]; 2] {
-    let pattern = raw.mosaic().pattern();
-    let black = raw.black_level();
-    core::array::from_fn(|ry| {
-        core::array::from_fn(|rx| {
-            let position = ry * 2 + rx;
-            let colour = pattern.colour_at(rx, ry).index();
-            Pointwise {
-                black: black[position],
-                normalise: MulQ16::new(super::recip_q16(raw.white_level() - black[position])),
-                gain: path.gain_q16.map_or(MulQ16::ONE, MulQ16::new),
-                wb: path
-                    .wb_q16
-                    .map_or(MulQ16::ONE, |wb| MulQ16::new(wb[colour])),
-            }
-        })
-    })
-}
-
 /// Raw row `my` through defect correction and the pointwise stage into the halves of `dst`.
 #[inline(always)]
-fn prepare_row(
-    path: &FixedPipeline<'_>,
+fn prepare_row<A: Planar>(
+    dpc_config: &dpc::DpcConfig<'_>,
     raw: &RawFrame<'_>,
     my: usize,
-    steps: [Pointwise; 2],
+    steps: [A::Steps; 2],
     halves: Halves,
-    dst: &mut [u16],
+    dst: &mut [A::P],
 ) {
     let w = halves.even + halves.odd;
     let o = halves.odd_start();
@@ -402,75 +574,34 @@ fn prepare_row(
     // CHUNK is even, so each chunk starts at an even column.
     for x0 in (0..w).step_by(CHUNK) {
         let n = CHUNK.min(w - x0);
-        dpc::correct_span(raw, &path.dpc, my, x0, &mut corrected[..n]);
-        let pairs = n / 2;
-        let even = &mut dst[1 + x0 / 2..1 + x0 / 2 + pairs];
-        for (e, pair) in even.iter_mut().zip(corrected[..2 * pairs].chunks_exact(2)) {
-            *e = steps[0].apply(pair[0]);
+        dpc::correct_span(raw, dpc_config, my, x0, &mut corrected[..n]);
+        let pairs = &corrected[..n - n % 2];
+        let even = &mut dst[1 + x0 / 2..1 + x0 / 2 + pairs.len() / 2];
+        for (e, pair) in even.iter_mut().zip(pairs.chunks_exact(2)) {
+            *e = A::pointwise(steps[0], pair[0]);
         }
-        let odd = &mut dst[o + 1 + x0 / 2..o + 1 + x0 / 2 + pairs];
-        for (d, pair) in odd.iter_mut().zip(corrected[..2 * pairs].chunks_exact(2)) {
-            *d = steps[1].apply(pair[1]);
+        let odd = &mut dst[o + 1 + x0 / 2..o + 1 + x0 / 2 + pairs.len() / 2];
+        for (d, pair) in odd.iter_mut().zip(pairs.chunks_exact(2)) {
+            *d = A::pointwise(steps[1], pair[1]);
         }
         if n % 2 == 1 {
             // The last column of an odd width.
-            dst[1 + (x0 + n - 1) / 2] = steps[0].apply(corrected[n - 1]);
+            dst[1 + (x0 + n - 1) / 2] = A::pointwise(steps[0], corrected[n - 1]);
         }
     }
     halves.pad(dst);
 }
 
-/// Demosaics row `y` from its five prepared rows into `planes`.
-#[inline(always)]
-fn demosaic_row(
-    method: Method,
-    source: [&[u16]; 5],
-    halves: Halves,
-    pattern: CfaPattern,
-    y: usize,
-    planes: &mut [u16],
-) {
-    for parity in 0..2 {
-        let rows: SiteRows<'_> = source.map(|r| {
-            let (same, other, _) = halves.sites(r, parity);
-            (same, other)
-        });
-        let own = pattern.colour_at(parity, y);
-        let horizontal = pattern.colour_at(parity + 1, y);
-        let [a, b, c] = site_planes(planes, halves, parity, own, horizontal);
-        match (method, own) {
-            (Method::Mhc, CfaColour::Green) => mhc_green(rows, a, b, c),
-            (Method::Mhc, _) => mhc_chroma(rows, a, b, c),
-            (_, CfaColour::Green) => bilinear_green(rows, a, b, c),
-            (_, _) => bilinear_chroma(rows, a, b, c),
-        }
-    }
-}
-
-/// The colour matrix on the planes, in place.
-#[inline(always)]
-fn colour_matrix(m: &CcmSplit, planes: &mut [u16], w: usize) {
-    let (r, rest) = planes.split_at_mut(w);
-    let (g, b) = rest.split_at_mut(w);
-    let (g, b) = (&mut g[..r.len()], &mut b[..r.len()]);
-    for ((r, g), b) in r.iter_mut().zip(g.iter_mut()).zip(b.iter_mut()) {
-        let v = [u32::from(*r), u32::from(*g), u32::from(*b)];
-        *r = m.channel(0, v);
-        *g = m.channel(1, v);
-        *b = m.channel(2, v);
-    }
-}
-
 /// Encodes the planes to 8-bit sRGB, interleaving the halves into the output row.
 #[inline(always)]
-fn encode_row<O: OutputSample>(
-    path: &FixedPipeline<'_>,
-    planes: &[u16],
+fn encode_row<A: Planar, O: OutputSample>(
+    path: &A,
+    planes: &[A::P],
     halves: Halves,
     out: &mut [O],
 ) {
     let w = halves.even + halves.odd;
-    let encode = |v: u16| O::from_code(path.encode.lookup8(v));
+    let encode = |v: A::P| O::from_code(path.code8(v));
     let plane = |c: usize| &planes[c * w..(c + 1) * w];
     let [r, g, b] = [plane(0), plane(1), plane(2)];
     let (even, odd) = (halves.even, halves.odd);
