@@ -1,5 +1,5 @@
 //! The common camera pipeline (defect correction, black level, gain, white balance, bilinear
-//! or MHC, colour matrix, 8-bit sRGB), scheduled over planar rows so that every stage but the
+//! or MHC, highlights, colour matrix, 8-bit sRGB), scheduled over planar rows so that every stage but the
 //! encoding is a loop over contiguous slices that the compiler vectorises. Both paths run it.
 //! The arithmetic is the general engine's, operation for operation (the float sums in the
 //! same order); only the layout and the order of the loops differ, so the output is
@@ -13,7 +13,8 @@
 //!   reflect-101 border the same loop as the interior.
 //! - The demosaiced row is three planes (R, G, B), each even half then odd half, one filter
 //!   (a tap table of `demosaic`) per plane and half; the colour matrix runs on the planes; the
-//!   encoding (table loads, the one gather) writes the interleaved output.
+//!   encoding (table loads, the one gather) writes the interleaved output. The highlight
+//!   stage, when on, is a scalar loop over the planes (it tests each pixel against the knee).
 //! - The fixed path keeps the general engine's `u64`/`i64` products in `u32`/`i32` lanes by
 //!   splitting each Q16 constant into its integer and fraction parts ([`MulQ16`],
 //!   [`CcmSplit`]), which is exact.
@@ -137,7 +138,6 @@ impl Planar for FixedPipeline<'_> {
         self.lsc.is_none()
             && self.distortion.is_none()
             && self.inverse_denoise.is_none()
-            && self.highlights.is_none()
             && self.saturation_q.is_none()
             && self.tone_lut.is_none()
             && self.sharpen_q12.is_none()
@@ -204,7 +204,6 @@ impl Planar for FloatPipeline<'_> {
         c.lsc.is_none()
             && c.active_distortion().is_none()
             && c.denoise == 0.0
-            && c.highlight_knee >= 1.0
             && c.tone.saturation_is_identity()
             && c.tone.curve_is_identity()
             && c.sharpen == 0.0
@@ -546,6 +545,9 @@ pub(super) fn run<A: Planar, O: OutputSample>(
             &ring[slot * row_len..(slot + 1) * row_len]
         });
         demosaic_row(path.method(), source, halves, pattern, y, planes);
+        if path.highlights_on() {
+            highlights_row(path, source, halves, planes);
+        }
         if let Some(m) = &matrix {
             let (r, rest) = planes.split_at_mut(w);
             let (g, b) = rest.split_at_mut(w);
@@ -556,6 +558,38 @@ pub(super) fn run<A: Planar, O: OutputSample>(
         encode_row(path, planes, halves, out.row_mut(y - rows.start));
     }
     Ok(())
+}
+
+/// The highlight stage on the demosaiced planes: each pixel with the largest prepared sample
+/// of the 3x3 around it (the reflected columns at the edges, as the engine reads them).
+#[inline(always)]
+fn highlights_row<A: Planar>(path: &A, source: [&[A::P]; 5], halves: Halves, planes: &mut [A::P]) {
+    let w = halves.even + halves.odd;
+    let (r, rest) = planes.split_at_mut(w);
+    let (g, b) = rest.split_at_mut(w);
+    for parity in 0..2 {
+        let rows: SiteRows<'_, A::P> = source.map(|r| halves.sites(r, parity));
+        let (start, n) = match parity {
+            0 => (0, halves.even),
+            _ => (halves.even, halves.odd),
+        };
+        let (r, g, b) = (
+            &mut r[start..start + n],
+            &mut g[start..start + n],
+            &mut b[start..start + n],
+        );
+        for (i, ((r, g), b)) in r.iter_mut().zip(g.iter_mut()).zip(b.iter_mut()).enumerate() {
+            let neighbourhood: [A::P; 9] = core::array::from_fn(|k| {
+                let (same, other) = rows[1 + k / 3];
+                match k % 3 {
+                    0 => other[i],
+                    1 => same[i + 1],
+                    _ => other[i + 1],
+                }
+            });
+            [*r, *g, *b] = path.highlights([*r, *g, *b], A::brightest(neighbourhood));
+        }
+    }
 }
 
 /// Raw row `my` through defect correction and the pointwise stage into the halves of `dst`.
