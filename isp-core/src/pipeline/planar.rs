@@ -562,7 +562,12 @@ pub(super) fn run<A: Planar, O: OutputSample>(
 
 /// The highlight stage on the demosaiced planes: each pixel with the largest prepared sample
 /// of the 3x3 around it (the reflected columns at the edges, as the engine reads them).
-#[inline(always)]
+// Out of line: inlined into the AVX2 entry, its scalar code changed how LLVM compiled the
+// rest of the loop (camsim's fixed MHC with the stage off went from 21 to 28 ms, also with a
+// loop instantiated per stage setting). Out of line it is slower itself (13 ns per pixel on
+// the synthetic frame, whose samples straddle the knee, a branch per pixel): a branch-free
+// vector form is still to do.
+#[inline(never)]
 fn highlights_row<A: Planar>(path: &A, source: [&[A::P]; 5], halves: Halves, planes: &mut [A::P]) {
     let w = halves.even + halves.odd;
     let (r, rest) = planes.split_at_mut(w);
@@ -579,14 +584,19 @@ fn highlights_row<A: Planar>(path: &A, source: [&[A::P]; 5], halves: Halves, pla
             &mut b[start..start + n],
         );
         for (i, ((r, g), b)) in r.iter_mut().zip(g.iter_mut()).zip(b.iter_mut()).enumerate() {
-            let neighbourhood: [A::P; 9] = core::array::from_fn(|k| {
-                let (same, other) = rows[1 + k / 3];
-                match k % 3 {
-                    0 => other[i],
-                    1 => same[i + 1],
-                    _ => other[i + 1],
-                }
-            });
+            let [(up, up_other), (mid, mid_other), (down, down_other)] =
+                [rows[1], rows[2], rows[3]];
+            let neighbourhood = [
+                up_other[i],
+                up[i + 1],
+                up_other[i + 1],
+                mid_other[i],
+                mid[i + 1],
+                mid_other[i + 1],
+                down_other[i],
+                down[i + 1],
+                down_other[i + 1],
+            ];
             [*r, *g, *b] = path.highlights([*r, *g, *b], A::brightest(neighbourhood));
         }
     }
