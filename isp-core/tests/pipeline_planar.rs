@@ -6,34 +6,13 @@
 
 use isp_core::demosaic::Method;
 use isp_core::dpc::{Defect, DpcConfig};
-use isp_core::frame::{RawFrame, RgbViewMut};
+use isp_core::frame::RawFrame;
 use isp_core::pipeline::{FixedPipeline, FloatPipeline, Input, IspConfig, IDENTITY};
 use isp_core::CfaPattern;
 use proptest::prelude::*;
 
-/// Runs `run(rows, view)` over bands of the given heights (cycled) into one output.
-fn in_bands(
-    w: usize,
-    h: usize,
-    bands: &[usize],
-    mut run: impl FnMut(std::ops::Range<usize>, &mut RgbViewMut<'_, u8>),
-) -> Vec<u8> {
-    let mut out = vec![0u8; w * h * 3];
-    let mut y = 0;
-    for &band in bands.iter().cycle() {
-        if y >= h {
-            break;
-        }
-        let end = (y + band).min(h);
-        let slice = &mut out[3 * w * y..3 * w * end];
-        run(
-            y..end,
-            &mut RgbViewMut::new(slice, w, end - y, 3 * w).unwrap(),
-        );
-        y = end;
-    }
-    out
-}
+mod common;
+use common::in_bands;
 
 #[derive(Debug, Clone)]
 struct Case {
