@@ -891,17 +891,7 @@ impl<'a> FixedPipeline<'a> {
         scratch: &mut [u16],
         out: &mut RgbViewMut<'_, O>,
     ) -> Result<(), IspError> {
-        let max = match O::BITS {
-            8 => 255,
-            16 => 65535,
-            _ => 0,
-        };
-        if max != self.encode.max() {
-            return Err(IspError::InvalidParameter {
-                name: "output",
-                allowed: "u8 or u16 samples of the depth the pipeline was built for",
-            });
-        }
+        self.check_output_depth::<O>()?;
         run_planar_or_engine(self, input, rows, scratch, out)
     }
 
@@ -935,13 +925,26 @@ impl<'a> FixedPipeline<'a> {
         scratch: &mut [u16],
         out: &mut RgbViewMut<'_, O>,
     ) -> Result<(), IspError> {
-        if O::BITS != 8 && O::BITS != 16 || (O::BITS == 8) != (self.encode.max() == 255) {
+        self.check_output_depth::<O>()?;
+        run_rows(self, input, rows, scratch, out)
+    }
+}
+
+impl FixedPipeline<'_> {
+    /// Output samples must have the depth the encoding table was built for.
+    fn check_output_depth<O: OutputSample>(&self) -> Result<(), IspError> {
+        let max = match O::BITS {
+            8 => 255,
+            16 => 65535,
+            _ => 0,
+        };
+        if max != self.encode.max() {
             return Err(IspError::InvalidParameter {
                 name: "output",
                 allowed: "u8 or u16 samples of the depth the pipeline was built for",
             });
         }
-        run_rows(self, input, rows, scratch, out)
+        Ok(())
     }
 }
 
