@@ -727,9 +727,19 @@ impl<'a> Runner<'a> {
     }
 }
 
-/// The fixed pipeline in the fastest build this CPU runs: the AVX2 build where the CPU has it
-/// (bit-identical output, tested in isp-core), the baseline build otherwise; as
-/// `demosaic::directional_dispatch` chooses.
+/// Whether the CPU has the AVX-512 features isp-core's `run_input_avx512` entries are
+/// compiled for.
+#[cfg(target_arch = "x86_64")]
+fn has_avx512() -> bool {
+    std::arch::is_x86_feature_detected!("avx512f")
+        && std::arch::is_x86_feature_detected!("avx512bw")
+        && std::arch::is_x86_feature_detected!("avx512vl")
+        && std::arch::is_x86_feature_detected!("avx512dq")
+}
+
+/// The fixed pipeline in the fastest build this CPU runs: the AVX-512 build, else the AVX2
+/// build where the CPU has it (bit-identical output, tested in isp-core), the baseline build
+/// otherwise; as `demosaic::directional_dispatch` chooses.
 fn fixed_dispatch<O: OutputSample>(
     pipeline: &FixedPipeline<'_>,
     input: Input<'_>,
@@ -737,6 +747,12 @@ fn fixed_dispatch<O: OutputSample>(
     scratch: &mut [u16],
     out: &mut RgbViewMut<'_, O>,
 ) -> Result<(), IspError> {
+    #[cfg(target_arch = "x86_64")]
+    if has_avx512() {
+        // SAFETY: the CPU has just been found to support the four features
+        // `run_input_avx512` is compiled for.
+        return unsafe { pipeline.run_input_avx512(input, rows, scratch, out) };
+    }
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has just been found to support AVX2, the one target feature
@@ -754,6 +770,11 @@ fn float_dispatch<O: OutputSample>(
     scratch: &mut [f32],
     out: &mut RgbViewMut<'_, O>,
 ) -> Result<(), IspError> {
+    #[cfg(target_arch = "x86_64")]
+    if has_avx512() {
+        // SAFETY: as in `fixed_dispatch`.
+        return unsafe { pipeline.run_input_avx512(input, rows, scratch, out) };
+    }
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has just been found to support AVX2, the one target feature

@@ -1,7 +1,7 @@
 //! The planar schedule (the common camera pipeline over parity-split planar rows) is the
 //! general streaming engine, bit for bit, on both paths: for any frame size, stride, pattern, levels,
 //! defects, gains, colour matrix, demosaic method and band heights, in the baseline build and
-//! in the AVX2 build. Configurations the schedule does not take run on the engine either way,
+//! in the AVX2 and AVX-512 builds. Configurations the schedule does not take run on the engine either way,
 //! so they are checked too (the entry must not change them).
 
 use isp_core::demosaic::Method;
@@ -55,6 +55,7 @@ fn case() -> impl Strategy<Value = Case> {
                 prop_oneof![
                     Just(Method::Mhc),
                     Just(Method::Bilinear),
+                    Just(Method::Directional),
                     Just(Method::Nearest)
                 ],
                 prop_oneof![3 => Just(1.0f32), 1 => 0.0f32..1.0],
@@ -85,8 +86,8 @@ fn case() -> impl Strategy<Value = Case> {
     )
 }
 
-/// The case's output through `run_input`, `run_input_avx2` (where the CPU has AVX2) and the
-/// general engine, for the fixed path and for the float path: `[fixed runs, float runs]`,
+/// The case's output through `run_input`, `run_input_avx2` and `run_input_avx512` (where the
+/// CPU has the features) and the general engine, for the fixed path and for the float path: `[fixed runs, float runs]`,
 /// each run named, the engine first.
 fn outputs(c: &Case) -> [Vec<(&'static str, Vec<u8>)>; 2] {
     let white = ((1u32 << c.bits) - 1) as u16;
@@ -166,7 +167,37 @@ fn outputs(c: &Case) -> [Vec<(&'static str, Vec<u8>)>; 2] {
             }),
         ));
     }
+    #[cfg(target_arch = "x86_64")]
+    if avx512() {
+        let mut scratch = vec![0u16; fixed.scratch_len(w, h).unwrap()];
+        fixed_runs.push((
+            "fixed run_input_avx512",
+            in_bands(w, h, bands, |rows, view| {
+                // SAFETY: the AVX-512 features were detected at run time.
+                unsafe { fixed.run_input_avx512(input, rows, &mut scratch, view) }.unwrap()
+            }),
+        ));
+        let mut scratch = vec![0f32; float.scratch_len(w, h).unwrap()];
+        float_runs.push((
+            "float run_input_avx512",
+            in_bands(w, h, bands, |rows, view| {
+                // SAFETY: the AVX-512 features were detected at run time.
+                unsafe { float.run_input_avx512(input, rows, &mut scratch, view) }.unwrap()
+            }),
+        ));
+    }
     [fixed_runs, float_runs]
+}
+
+/// Whether the CPU has the features of the `run_input_avx512` entries.
+fn avx512() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    return std::arch::is_x86_feature_detected!("avx512f")
+        && std::arch::is_x86_feature_detected!("avx512bw")
+        && std::arch::is_x86_feature_detected!("avx512vl")
+        && std::arch::is_x86_feature_detected!("avx512dq");
+    #[cfg(not(target_arch = "x86_64"))]
+    false
 }
 
 fn avx2() -> bool {
@@ -204,7 +235,7 @@ fn planar_schedule_matches_the_engine_on_a_wide_frame() {
             (64 + x * 3 + y * 5 + (state >> 26) as usize).min(4095) as u16
         })
         .collect();
-    for method in [Method::Mhc, Method::Bilinear] {
+    for method in [Method::Mhc, Method::Bilinear, Method::Directional] {
         let c = Case {
             w,
             h,

@@ -178,10 +178,35 @@ where
         let source = due
             .mosaic
             .map(|r| input.row(reflect(r as isize - HALO as isize, h)));
-        let out = due.output.map(|r| output.row_mut(r - HALO));
-        step::<A>(&frame, &mut p, due, source, out);
+        let out = due
+            .output
+            .map(|r| OutputRow::Interleaved(output.row_mut(r - HALO)));
+        step::<A>(&frame, &mut p, due, source.map(SourceRow::Interleaved), out);
     }
     Ok(())
+}
+
+/// A frame row of the mosaic as a stream reads it.
+#[derive(Clone, Copy)]
+pub(crate) enum SourceRow<'a, T> {
+    /// The samples in column order.
+    Interleaved(&'a [T]),
+    /// The even columns and the odd columns (`(w + 1) / 2` and `w / 2` samples).
+    Split {
+        /// Columns 0, 2, 4, ...
+        even: &'a [T],
+        /// Columns 1, 3, 5, ...
+        odd: &'a [T],
+    },
+}
+
+/// Where a stream writes a frame row.
+pub(crate) enum OutputRow<'a, T> {
+    /// Interleaved RGB, `3 * w` samples.
+    Interleaved(&'a mut [T]),
+    /// Three planes, R then G then B, of `w` samples each, each its even columns then its odd
+    /// ones: the layout the pipeline's planar schedule works on.
+    Planes(&'a mut [T]),
 }
 
 /// Runs the stages `due` names: reads `source` (the frame row `due.mosaic` reflects) and
@@ -191,11 +216,16 @@ fn step<A: Arithmetic>(
     frame: &Frame,
     p: &mut Planes<'_, A::E>,
     due: Due,
-    source: Option<&[A::T]>,
-    out: Option<&mut [A::T]>,
+    source: Option<SourceRow<'_, A::T>>,
+    out: Option<OutputRow<'_, A::T>>,
 ) {
     if let (Some(r), Some(source)) = (due.mosaic, source) {
-        frame.read_row(source, r, &mut p.mosaic, A::enter);
+        match source {
+            SourceRow::Interleaved(row) => frame.read_row(row, r, &mut p.mosaic, A::enter),
+            SourceRow::Split { even, odd } => {
+                frame.read_split(even, odd, r, &mut p.mosaic, A::enter)
+            }
+        }
     }
     if let Some(r) = due.diff {
         A::diff(frame, r, p);
@@ -214,7 +244,13 @@ fn step<A: Arithmetic>(
         A::chroma(frame, r, p);
     }
     if let (Some(r), Some(out)) = (due.output, out) {
-        A::output(frame, r, p, out);
+        match out {
+            OutputRow::Interleaved(out) => A::output(frame, r, p, out),
+            OutputRow::Planes(out) => {
+                A::estimate_output(frame, r, p);
+                frame.write_planes(&p.out_rgb, out, A::leave);
+            }
+        }
     }
 }
 
@@ -242,6 +278,8 @@ pub(crate) trait Arithmetic {
     fn chroma(frame: &Frame, r: usize, p: &mut Planes<'_, Self::E>);
     /// Stage 6 and the interleaved output row.
     fn output(frame: &Frame, r: usize, p: &mut Planes<'_, Self::E>, out: &mut [Self::T]);
+    /// Stage 6 alone, into the planes' output rows.
+    fn estimate_output(frame: &Frame, r: usize, p: &mut Planes<'_, Self::E>);
 }
 
 /// The `f32` method on samples of type `T`.
@@ -277,6 +315,10 @@ impl<T: Sample> Arithmetic for Float<T> {
     #[inline(always)]
     fn output(frame: &Frame, r: usize, p: &mut Planes<'_, f32>, out: &mut [T]) {
         frame.output_row(r, p, out);
+    }
+    #[inline(always)]
+    fn estimate_output(frame: &Frame, r: usize, p: &mut Planes<'_, f32>) {
+        frame.output_estimates(r, p);
     }
 }
 
@@ -351,10 +393,14 @@ impl<'s, A: Arithmetic> Stream<'s, A> {
     }
 
     /// Runs one step: reads `source` (the row [`Stream::next_read`] named) and writes `out`
-    /// (the interleaved row [`Stream::next_output`] named); either is ignored when the step
-    /// has no use for it.
+    /// (the row [`Stream::next_output`] named); either is ignored when the step has no use
+    /// for it.
     #[inline(always)]
-    pub(crate) fn step(&mut self, source: Option<&[A::T]>, out: Option<&mut [A::T]>) {
+    pub(crate) fn step(
+        &mut self,
+        source: Option<SourceRow<'_, A::T>>,
+        out: Option<OutputRow<'_, A::T>>,
+    ) {
         let due = self.due();
         step::<A>(&self.frame, &mut self.planes, due, source, out);
         self.next += 1;
@@ -650,17 +696,44 @@ impl Span {
 }
 
 /// Element `i` of each of `N` slices.
+// A loop, not `array::from_fn`: inlined into the pipeline's large AVX2 entry, `from_fn` was
+// left a call per pixel (the loops then ran 5x slower).
 #[inline(always)]
-fn at<E: Copy, const N: usize>(slices: &[&[E]; N], i: usize) -> [E; N] {
-    core::array::from_fn(|k| slices[k][i])
+#[allow(clippy::needless_range_loop)]
+fn at<E: Copy + Default, const N: usize>(slices: &[&[E]; N], i: usize) -> [E; N] {
+    let mut v = [E::default(); N];
+    for k in 0..N {
+        v[k] = slices[k][i];
+    }
+    v
 }
 
 /// `v` clamped to `[0, 1]`; NaN gives 0. Without a branch (`max` then `min`), so the scalar
 /// rows do not mispredict on it.
 #[inline(always)]
-#[allow(clippy::manual_clamp)] // `clamp` keeps NaN; this must give 0
 fn clamp01(v: f32) -> f32 {
-    v.max(0.0).min(1.0)
+    min(max(v, 0.0), 1.0)
+}
+
+/// The smaller of `a` and `b`, `b` if either is NaN: one `minps` on x86 (`f32::min`'s NaN
+/// rule takes three instructions there). The stages take it of non-negative sums only.
+#[inline(always)]
+fn min(a: f32, b: f32) -> f32 {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+
+/// The larger of `a` and `b`, `b` if either is NaN (one `maxps`; see [`min`]).
+#[inline(always)]
+fn max(a: f32, b: f32) -> f32 {
+    if a > b {
+        a
+    } else {
+        b
+    }
 }
 
 /// Half the width of the band of decidedness over which [`refined`] fades from the
@@ -700,8 +773,10 @@ fn line_stat(v: [f32; 7]) -> f32 {
 /// chroma along the line at offsets -3, -1, +1, +3 and `g` the green at offsets `-2..=2`.
 #[inline(always)]
 fn pair_estimate(x: [f32; 4], g: [f32; 5]) -> f32 {
-    let before = EPS + (x[1] - x[2]).abs() + (x[1] - x[0]).abs() + (g[2] - g[0]).abs();
-    let after = EPS + (x[2] - x[1]).abs() + (x[2] - x[3]).abs() + (g[2] - g[4]).abs();
+    // |a - b| and |b - a| are the same float, so the shared term is computed once.
+    let across = (x[1] - x[2]).abs();
+    let before = EPS + across + (x[1] - x[0]).abs() + (g[2] - g[0]).abs();
+    let after = EPS + across + (x[2] - x[3]).abs() + (g[2] - g[4]).abs();
     (after * (x[1] - g[1]) + before * (x[2] - g[3])) / (before + after)
 }
 
@@ -945,6 +1020,61 @@ impl Frame {
         }
     }
 
+    /// [`Frame::read_row`] for a row given as its even and odd columns.
+    #[inline(always)]
+    fn read_split<T: Copy, E: Copy, F: Fn(T) -> E>(
+        &self,
+        even: &[T],
+        odd: &[T],
+        r: usize,
+        ring: &mut Ring<'_, E>,
+        convert: F,
+    ) {
+        let (even, odd) = (&even[..self.w.div_ceil(2)], &odd[..self.w / 2]);
+        let dst = ring.row_mut(r);
+        let (dst_even, dst_odd) = dst.split_at_mut(self.half);
+        for (d, s) in dst_even[HALO / 2..].iter_mut().zip(even) {
+            *d = convert(*s);
+        }
+        for (d, s) in dst_odd[HALO / 2..].iter_mut().zip(odd) {
+            *d = convert(*s);
+        }
+        for x in (0..HALO).chain(HALO + self.w..self.pw) {
+            // HALO is even, so padded column x has the parity of frame column c.
+            let c = reflect(x as isize - HALO as isize, self.w);
+            let v = convert(if c.is_multiple_of(2) { even[c / 2] } else { odd[c / 2] });
+            let half = if x % 2 == 0 {
+                &mut *dst_even
+            } else {
+                &mut *dst_odd
+            };
+            half[x / 2] = v;
+        }
+    }
+
+    /// Writes the frame's part of the split rows `rgb` into `out` as three planes (see
+    /// [`OutputRow::Planes`]), converting each value with `convert`.
+    #[inline(always)]
+    fn write_planes<T: Copy, E: Copy, F: Fn(E) -> T>(
+        &self,
+        rgb: &[&mut [E]; 3],
+        out: &mut [T],
+        convert: F,
+    ) {
+        let (even, odd) = (self.w.div_ceil(2), self.w / 2);
+        let start = HALO / 2;
+        for (plane, split) in out.chunks_exact_mut(self.w).zip(rgb) {
+            let (to_even, to_odd) = plane.split_at_mut(even);
+            for (d, s) in to_even.iter_mut().zip(&split[start..start + even]) {
+                *d = convert(*s);
+            }
+            let from_odd = &split[self.half + start..self.half + start + odd];
+            for (d, s) in to_odd.iter_mut().zip(from_odd) {
+                *d = convert(*s);
+            }
+        }
+    }
+
     /// Writes the frame's part of the split rows `rgb` into `out`, interleaved, two pixels
     /// (an even and an odd column) at a time, converting each value with `convert`.
     #[inline(always)]
@@ -1091,27 +1221,17 @@ impl Frame {
                 de += f * dh[3 + k][i];
             }
             let g_diff = c[3][i] + (wn * dn + ws * ds + ww * dw + we * de) / (wn + ws + ww + we);
-            let gn = EPS
-                + (col[4][i] - col[2][i]).abs()
-                + (col[3][i] - col[1][i]).abs()
-                + (col[2][i] - col[0][i]).abs();
-            let gs = EPS
-                + (col[2][i] - col[4][i]).abs()
-                + (col[3][i] - col[5][i]).abs()
-                + (col[4][i] - col[6][i]).abs();
-            let gw = EPS
-                + (c[4][i] - c[2][i]).abs()
-                + (c[3][i] - c[1][i]).abs()
-                + (c[2][i] - c[0][i]).abs();
-            let ge = EPS
-                + (c[2][i] - c[4][i]).abs()
-                + (c[3][i] - c[5][i]).abs()
-                + (c[4][i] - c[6][i]).abs();
+            // |a - b| = |b - a| exactly: the across terms are shared by both sides.
+            let (across_v, across_h) = ((col[4][i] - col[2][i]).abs(), (c[4][i] - c[2][i]).abs());
+            let gn = EPS + across_v + (col[3][i] - col[1][i]).abs() + (col[2][i] - col[0][i]).abs();
+            let gs = EPS + across_v + (col[3][i] - col[5][i]).abs() + (col[4][i] - col[6][i]).abs();
+            let gw = EPS + across_h + (c[3][i] - c[1][i]).abs() + (c[2][i] - c[0][i]).abs();
+            let ge = EPS + across_h + (c[3][i] - c[5][i]).abs() + (c[4][i] - c[6][i]).abs();
             let vertical = (gs * col[2][i] + gn * col[4][i]) / (gn + gs);
             let horizontal = (ge * c[2][i] + gw * c[4][i]) / (gw + ge);
             let g_plain = class * horizontal + (1.0 - class) * vertical;
-            let diff_mean = sn.min(ss).min(sw.min(se)) * (1.0 / 9.0);
-            let raw_mean = gn.min(gs).min(gw.min(ge)) * (1.0 / 3.0);
+            let diff_mean = min(min(sn, ss), min(sw, se)) * (1.0 / 9.0);
+            let raw_mean = min(min(gn, gs), min(gw, ge)) * (1.0 / 3.0);
             let a = 0.6 + 0.35 * raw_mean / (raw_mean + 2.0 * diff_mean + 1e-9);
             out[i] = clamp01(a * g_diff + (1.0 - a) * g_plain);
         }
@@ -1134,27 +1254,15 @@ impl Frame {
 
     #[inline(always)]
     fn output_row<T: Sample>(&self, r: usize, p: &mut Planes<'_, f32>, out: &mut [T]) {
-        self.fill_known(r, p);
-        let t = self.green_site_taps(r, &p.mosaic, &p.opposite, &p.green, &p.class);
-        let [red, green, blue] = &mut p.out_rgb;
-        let (red_g, blue_g) = (t.span.out(red), t.span.out(blue));
-        for i in 0..red_g.len() {
-            let c = refined(t.class[i], at(&t.class_around, i));
-            let (gv, gh) = (at(&t.green_v, i), at(&t.green_h, i));
-            let vertical = pair_estimate(at(&t.red_v, i), gv);
-            let horizontal = pair_estimate(at(&t.red_h, i), gh);
-            red_g[i] = clamp01(gv[2] + (1.0 - c) * vertical + c * horizontal);
-            let vertical = pair_estimate(at(&t.blue_v, i), gv);
-            let horizontal = pair_estimate(at(&t.blue_h, i), gh);
-            blue_g[i] = clamp01(gv[2] + (1.0 - c) * vertical + c * horizontal);
-        }
+        self.output_estimates(r, p);
+        let [red, green, blue] = &p.out_rgb;
         // The same loop as `write_row`, written out: called through `write_row` this loop
         // measured 10 % slower overall (140 -> 130 Mpix/s), for no reason visible in the source.
         let start = HALO / 2;
         let at = |plane: &[f32], parity: usize, k: usize| {
             T::from_unit(plane[parity * self.half + start + k])
         };
-        let planes = [&*red, &*green, &*blue];
+        let planes = [&**red, &**green, &**blue];
         let mut pairs = out.chunks_exact_mut(6);
         for (k, o) in (&mut pairs).enumerate() {
             for c in 0..3 {
@@ -1167,6 +1275,26 @@ impl Frame {
             *r_last = at(planes[0], 0, k);
             *g_last = at(planes[1], 0, k);
             *b_last = at(planes[2], 0, k);
+        }
+    }
+
+    /// Stage 6: red and blue at row `r`'s green pixels, into the output rows with what the
+    /// row already knows.
+    #[inline(always)]
+    fn output_estimates(&self, r: usize, p: &mut Planes<'_, f32>) {
+        self.fill_known(r, p);
+        let t = self.green_site_taps(r, &p.mosaic, &p.opposite, &p.green, &p.class);
+        let [red, _, blue] = &mut p.out_rgb;
+        let (red_g, blue_g) = (t.span.out(red), t.span.out(blue));
+        for i in 0..red_g.len() {
+            let c = refined(t.class[i], at(&t.class_around, i));
+            let (gv, gh) = (at(&t.green_v, i), at(&t.green_h, i));
+            let vertical = pair_estimate(at(&t.red_v, i), gv);
+            let horizontal = pair_estimate(at(&t.red_h, i), gh);
+            red_g[i] = clamp01(gv[2] + (1.0 - c) * vertical + c * horizontal);
+            let vertical = pair_estimate(at(&t.blue_v, i), gv);
+            let horizontal = pair_estimate(at(&t.blue_h, i), gh);
+            blue_g[i] = clamp01(gv[2] + (1.0 - c) * vertical + c * horizontal);
         }
     }
 }

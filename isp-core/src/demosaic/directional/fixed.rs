@@ -88,7 +88,13 @@ impl<T: IntSample> Arithmetic for Fixed<T> {
     }
     #[inline(always)]
     fn output(frame: &Frame, r: usize, p: &mut Planes<'_, i32>, out: &mut [T]) {
-        frame.output_row_fixed(r, p, out);
+        frame.output_estimates_fixed(r, p);
+        let [red, green, blue] = &p.out_rgb;
+        frame.write_row([&**red, &**green, &**blue], out, from_working::<T>);
+    }
+    #[inline(always)]
+    fn estimate_output(frame: &Frame, r: usize, p: &mut Planes<'_, i32>) {
+        frame.output_estimates_fixed(r, p);
     }
 }
 
@@ -277,10 +283,12 @@ impl Frame {
         }
     }
 
-    fn output_row_fixed<T: IntSample>(&self, r: usize, p: &mut Planes<'_, i32>, out: &mut [T]) {
+    /// Stage 6: red and blue at row `r`'s green pixels, into the output rows with what the
+    /// row already knows.
+    fn output_estimates_fixed(&self, r: usize, p: &mut Planes<'_, i32>) {
         self.fill_known(r, p);
         let t = self.green_site_taps(r, &p.mosaic, &p.opposite, &p.green, &p.class);
-        let [red, green, blue] = &mut p.out_rgb;
+        let [red, _, blue] = &mut p.out_rgb;
         let (red_g, blue_g) = (t.span.out(red), t.span.out(blue));
         for i in 0..red_g.len() {
             let c = refined(t.class[i], at(&t.class_around, i));
@@ -292,7 +300,6 @@ impl Frame {
             let horizontal = pair_estimate(at(&t.blue_h, i), gh);
             blue_g[i] = steered(gv[2], c, vertical, horizontal);
         }
-        self.write_row([red, green, blue], out, from_working::<T>);
     }
 }
 
