@@ -1042,7 +1042,11 @@ impl Frame {
         for x in (0..HALO).chain(HALO + self.w..self.pw) {
             // HALO is even, so padded column x has the parity of frame column c.
             let c = reflect(x as isize - HALO as isize, self.w);
-            let v = convert(if c.is_multiple_of(2) { even[c / 2] } else { odd[c / 2] });
+            let v = convert(if c.is_multiple_of(2) {
+                even[c / 2]
+            } else {
+                odd[c / 2]
+            });
             let half = if x % 2 == 0 {
                 &mut *dst_even
             } else {

@@ -110,26 +110,97 @@ fn from_working<T: IntSample>(v: i32) -> T {
     T::from_u32((v.clamp(0, FULL) as u32 + step / 2) / step)
 }
 
+/// `floor(n / d)` for `d > 0`, `|n| < 2^62` and a quotient below 2^20 in magnitude (every
+/// division here: the largest quotients are colour differences, < 2^18), exactly
+/// `n.div_euclid(d)`.
+///
+/// On x86-64 and AArch64 it divides in `f32` and corrects the quotient by one either way:
+/// `n` and `d` convert with a relative error of 2^-24 each and the division adds one more,
+/// so the `f32` quotient is within 0.2 of the exact one, its nearest integer within one of
+/// the exact floor, and the remainder `n - q d` (exact in `i64`) says which. Unlike an integer division, which no vector unit has, this vectorises,
+/// so the stages' loops run in SIMD lanes: the integer method divides about eight times per
+/// pixel, and `idiv` took most of its time. On other targets (cores without a floating-point
+/// unit, where `f64` is emulated) it is the integer division.
+#[inline(always)]
+fn floor_div(n: i64, d: i64) -> i64 {
+    #[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
+    {
+        // The quotient rounded to the nearest integer by adding 1.5 * 2^23, which leaves it in
+        // the low bits of the sum (for |x| < 2^22): no float-to-integer conversion, whose
+        // saturating `as` compiles to a branch per lane. `f32`, not `f64`: its division has
+        // the precision this needs at three times the throughput. The products wrap, so no
+        // input panics; for the inputs above the result is exact.
+        const ROUNDER: f32 = 12_582_912.0;
+        let x = n as f32 / d as f32;
+        let q = ((x + ROUNDER).to_bits() as i32).wrapping_sub(ROUNDER.to_bits() as i32) as i64;
+        let r = n.wrapping_sub(q.wrapping_mul(d));
+        let q = if r < 0 { q.wrapping_sub(1) } else { q };
+        if r >= d {
+            q.wrapping_add(1)
+        } else {
+            q
+        }
+    }
+    #[cfg(not(any(target_arch = "x86_64", target_arch = "aarch64")))]
+    {
+        n.div_euclid(d.max(1))
+    }
+}
+
 /// `n / d` rounded half up, for `d > 0`.
 #[inline(always)]
 fn div_round(n: i64, d: i64) -> i64 {
-    (2 * n + d).div_euclid(2 * d)
+    floor_div(2 * n + d, 2 * d)
 }
 
 /// `v` clamped to the working range.
 #[inline(always)]
 fn clamp_full(v: i64) -> i32 {
-    v.clamp(0, FULL as i64) as i32
+    let v = if v > 0 { v } else { 0 };
+    (if v < FULL as i64 { v } else { FULL as i64 }) as i32
+}
+
+// The small helpers below are functions marked to inline, not closures or `Ord::min`: in the
+// pipeline's large AVX-512 entry LLVM left such calls out of line, one call per pixel, and
+// a loop with a call does not vectorise.
+
+/// The least of four values.
+#[inline(always)]
+fn least4(a: i64, b: i64, c: i64, d: i64) -> i64 {
+    let ab = if a < b { a } else { b };
+    let cd = if c < d { c } else { d };
+    if ab < cd {
+        ab
+    } else {
+        cd
+    }
+}
+
+/// A gradient (a sum of sample differences) in hundredths of an LSB, with the float method's
+/// floor.
+#[inline(always)]
+fn hundredths(s: i32) -> i32 {
+    100 * s + EPS_HUNDREDTHS
+}
+
+/// The inverse-square weight of a side whose gradient sum is `s`, relative to the least sum
+/// `least`, in Q16: `((least + floor) / (s + floor))^2`; `(least + floor) << 16 < 2^40`.
+#[inline(always)]
+fn relative_weight(least: i64, s: i64) -> i64 {
+    let q = floor_div((least + SUM_FLOOR) << Q, s + SUM_FLOOR);
+    (q * q) >> Q
 }
 
 /// `a / (a + b)` in Q16, rounded, for `0 <= a, b < 2^46`; one half when both are 0.
 #[inline(always)]
 fn ratio(a: i64, b: i64) -> i64 {
     let sum = a + b;
+    // Both arms computed, so the loops calling this vectorise (a select, not a branch).
+    let q = floor_div((a << Q) + sum / 2, sum.max(1));
     if sum == 0 {
         ONE / 2
     } else {
-        ((a << Q) + sum / 2) / sum
+        q
     }
 }
 
@@ -159,7 +230,6 @@ fn line_stat(v: [i32; 7]) -> i64 {
 /// at -2..=2. The weights (hundredths of an LSB) are < 2^25 and the differences < 2^17.
 #[inline(always)]
 fn pair_estimate(x: [i32; 4], g: [i32; 5]) -> i64 {
-    let hundredths = |s: i32| 100 * s + EPS_HUNDREDTHS;
     let before = hundredths((x[1] - x[2]).abs() + (x[1] - x[0]).abs() + (g[2] - g[0]).abs());
     let after = hundredths((x[2] - x[1]).abs() + (x[2] - x[3]).abs() + (g[2] - g[4]).abs());
     let (before, after) = (before as i64, after as i64);
@@ -177,6 +247,7 @@ fn steered(base: i32, c: i64, a: i64, b: i64) -> i32 {
 
 impl Frame {
     /// Colour differences `G - C` times 4 (exact): |value| <= 4 * 65535 < 2^18.
+    #[inline(always)]
     fn diff_row_fixed(&self, r: usize, p: &mut Planes<'_, i32>) {
         let m: [&[i32]; 5] = p.mosaic.rows(r);
         let gp = self.green_parity(r);
@@ -197,6 +268,7 @@ impl Frame {
     }
 
     /// The classifiers in Q16.
+    #[inline(always)]
     fn class_row_fixed(&self, r: usize, p: &mut Planes<'_, i32>) {
         let t = self.class_taps(r, &p.mosaic);
         let hv = t.green.out(p.class.row_mut(r));
@@ -212,14 +284,18 @@ impl Frame {
         }
     }
 
+    #[inline(always)]
     fn green_row_fixed(&self, r: usize, p: &mut Planes<'_, i32>) {
         self.keep_green(r, &p.mosaic, &mut p.green);
         let t = self.green_taps(r, &p.mosaic, [&p.diff_v, &p.diff_h], [&p.sum3_v, &p.sum3_h]);
         let out = t.span.out(p.green.row_mut(r));
         let (col, c, dv, dh, s3v, s3h) = (t.column, t.row, t.diff_v, t.diff_h, t.sum3_v, t.sum3_h);
         for i in 0..out.len() {
-            let [v0, v1, v2, v3, v4] = at(&s3v, i).map(i64::from);
-            let [h0, h1, h2, h3, h4] = at(&s3h, i).map(i64::from);
+            let [v0, v1, v2, v3, v4] = at(&s3v, i);
+            let [h0, h1, h2, h3, h4] = at(&s3h, i);
+            // Written out, not `array::map`: see `at`.
+            let (v0, v1, v2, v3, v4) = (v0 as i64, v1 as i64, v2 as i64, v3 as i64, v4 as i64);
+            let (h0, h1, h2, h3, h4) = (h0 as i64, h1 as i64, h2 as i64, h3 as i64, h4 as i64);
             // One-sided sums < 2^23, boxes < 2^24.
             let (sn, ss, sw, se) = (v2 + v1 + v0, v2 + v3 + v4, h2 + h1 + h0, h2 + h3 + h4);
             let (box_v, box_h) = (sn + ss - v2, sw + se - h2);
@@ -230,12 +306,13 @@ impl Frame {
             let class = ratio(box_v * box_v, box_h * box_h);
             // Inverse-square weights relative to the smallest sum, in Q16: (least / s)^2,
             // least << 16 < 2^40.
-            let sides = [sn, ss, sw, se].map(|s| s + SUM_FLOOR);
-            let least = sn.min(ss).min(sw.min(se));
-            let weights = sides.map(|s| {
-                let q = ((least + SUM_FLOOR) << Q) / s;
-                (q * q) >> Q
-            });
+            let least = least4(sn, ss, sw, se);
+            let weights = [
+                relative_weight(least, sn),
+                relative_weight(least, ss),
+                relative_weight(least, sw),
+                relative_weight(least, se),
+            ];
             // Smoothed differences, 100 x 4 x the float method's (< 2^25).
             let mut smooth = [0i64; 4];
             for (k, f) in SMOOTH_PERCENT.iter().enumerate() {
@@ -254,7 +331,6 @@ impl Frame {
             let [c0, c1, c2, c3, c4, c5, c6] = at(&c, i);
             let [n0, n1, n2, _, n4, n5, n6] = at(&col, i);
             // Gradients in hundredths of an LSB (< 2^25).
-            let hundredths = |s: i32| 100 * s + EPS_HUNDREDTHS;
             let gn = hundredths((n4 - n2).abs() + (c3 - n1).abs() + (n2 - n0).abs());
             let gs = hundredths((n2 - n4).abs() + (c3 - n5).abs() + (n4 - n6).abs());
             let gw = hundredths((c4 - c2).abs() + (c3 - c1).abs() + (c2 - c0).abs());
@@ -266,12 +342,13 @@ impl Frame {
             // The float method's 0.6 + 0.35 r / (r + 2 d), with r the least raw gradient over
             // 3 and d the least difference gradient over 9: on these scales (hundredths, and
             // 4 x), r / (r + 2 d) is 3 raw / (3 raw + 50 diff).
-            let raw = 3 * gn.min(gs).min(gw.min(ge));
-            let a = 39322 + 22938 * raw / (raw + 50 * least);
+            let raw = 3 * least4(gn, gs, gw, ge);
+            let a = 39322 + floor_div(22938 * raw, raw + 50 * least);
             out[i] = clamp_full((a * g_diff + (ONE - a) * g_plain + ONE / 2) >> Q);
         }
     }
 
+    #[inline(always)]
     fn chroma_row_fixed(&self, r: usize, p: &mut Planes<'_, i32>) {
         let t = self.chroma_taps(r, &p.mosaic, &p.green, &p.class);
         let out = t.span.out(p.opposite.row_mut(r));
@@ -285,6 +362,7 @@ impl Frame {
 
     /// Stage 6: red and blue at row `r`'s green pixels, into the output rows with what the
     /// row already knows.
+    #[inline(always)]
     fn output_estimates_fixed(&self, r: usize, p: &mut Planes<'_, i32>) {
         self.fill_known(r, p);
         let t = self.green_site_taps(r, &p.mosaic, &p.opposite, &p.green, &p.class);
@@ -312,6 +390,37 @@ fn refined(own: i32, diagonal: [i32; 4]) -> i64 {
     let (own, half, fade) = (i64::from(own), ONE / 2, ONE / 64);
     let lead = (half - own).abs() - (half - around).abs();
     // (lead + fade) / (2 fade) in Q16; |lead| <= 2^15, so every product < 2^37.
-    let keep = ((lead + fade) * (ONE / (2 * fade))).clamp(0, ONE);
+    let keep = (lead + fade) * (ONE / (2 * fade));
+    let keep = if keep > 0 { keep } else { 0 };
+    let keep = if keep < ONE { keep } else { ONE };
     around + ((keep * (own - around) + ONE / 2) >> Q)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::floor_div;
+
+    /// `floor_div` is `div_euclid` over the quotients and operands the stages divide: exact
+    /// multiples, remainders of one and `d - 1`, negative numerators, and spread values.
+    #[test]
+    fn floor_div_is_the_integer_division() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for _ in 0..200_000 {
+            let d = (next() >> (17 + next() % 46)).max(1) as i64; // 1 ..= 2^47
+            let q = (next() >> (44 + next() % 20)) as i64 - (1 << 19); // |q| <= 2^20
+            let quotient_room = (1i64 << 62) / d;
+            let q = q.clamp(-quotient_room + 1, quotient_room - 1);
+            for r in [0, 1, d / 2, d - 1].into_iter().filter(|r| *r < d) {
+                let n = q * d + r;
+                assert_eq!(floor_div(n, d), q, "{n} / {d}");
+                assert_eq!(floor_div(n, d), n.div_euclid(d), "{n} / {d}");
+            }
+        }
+    }
 }
