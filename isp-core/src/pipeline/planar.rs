@@ -1,6 +1,8 @@
-//! The common camera pipeline (defect correction, black level, gain, white balance, bilinear
-//! or MHC, highlights, colour matrix, 8-bit sRGB), scheduled over planar rows so that every stage but the
-//! encoding is a loop over contiguous slices that the compiler vectorises. Both paths run it.
+//! The common camera pipeline (defect correction, black level, gain, white balance, bilinear,
+//! MHC or directional, highlights, colour matrix, 8-bit sRGB), scheduled over planar rows so
+//! that every stage but the encoding is a loop over contiguous slices that the compiler
+//! vectorises. Both paths run it. The directional method is its own stream (see
+//! [`run_directional`]), between the same preparation and finish.
 //! The arithmetic is the general engine's, operation for operation (the float sums in the
 //! same order); only the layout and the order of the loops differ, so the output is
 //! bit-identical (tested).
