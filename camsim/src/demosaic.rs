@@ -99,8 +99,8 @@ impl Demosaic {
         };
         match (self.method, self.integer) {
             (Method::Nearest, _) => nearest(&mosaic, &mut view)?,
-            (Method::Bilinear, _) => bilinear(&mosaic, self.border, &mut view)?,
-            (Method::Mhc, _) => mhc(&mosaic, &mut view)?,
+            (Method::Bilinear, _) => bilinear_dispatch(&mosaic, self.border, &mut view)?,
+            (Method::Mhc, _) => mhc_dispatch(&mosaic, &mut view)?,
             (Method::Directional, false) => {
                 directional_dispatch(&mosaic, &mut view, &mut vec![0f32; scratch()?])?
             }
@@ -127,6 +127,34 @@ pub fn directional_dispatch<T: Sample>(
         return unsafe { isp_core::demosaic::directional::directional_avx2(mosaic, out, scratch) };
     }
     directional(mosaic, out, scratch)
+}
+
+/// Bilinear in the fastest build this CPU runs, as [`directional_dispatch`] chooses.
+pub fn bilinear_dispatch<T: Sample>(
+    mosaic: &MosaicView<'_, T>,
+    border: Border,
+    out: &mut RgbViewMut<'_, T>,
+) -> Result<(), isp_core::IspError> {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has just been found to support AVX2, the one target feature
+        // `bilinear_avx2` is compiled for.
+        return unsafe { isp_core::demosaic::bilinear_avx2(mosaic, border, out) };
+    }
+    bilinear(mosaic, border, out)
+}
+
+/// Malvar-He-Cutler in the fastest build this CPU runs, as [`directional_dispatch`] chooses.
+pub fn mhc_dispatch<T: Sample>(
+    mosaic: &MosaicView<'_, T>,
+    out: &mut RgbViewMut<'_, T>,
+) -> Result<(), isp_core::IspError> {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: as in `bilinear_dispatch`.
+        return unsafe { isp_core::demosaic::demosaic_avx2(Method::Mhc, mosaic, out) };
+    }
+    mhc(mosaic, out)
 }
 
 /// Samples an RGB image into a mosaic of pattern `p`, each sample multiplied by `scale`.

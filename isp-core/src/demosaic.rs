@@ -45,6 +45,7 @@ use crate::frame::{MosaicView, RgbViewMut, Sample};
 use crate::{CfaColour, CfaPattern, IspError};
 
 pub mod directional;
+pub(crate) mod planar;
 
 /// How demosaicing treats pixels whose neighbourhood crosses the frame edge.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -151,10 +152,41 @@ pub fn demosaic<T: Sample>(
     input: &MosaicView<'_, T>,
     output: &mut RgbViewMut<'_, T>,
 ) -> Result<(), IspError> {
+    demosaic_body(method, input, output)
+}
+
+/// [`demosaic`] compiled for x86-64 CPUs with AVX2: the same output (the same operations in
+/// wider lanes), faster for bilinear and MHC.
+///
+/// # Safety
+///
+/// The CPU must support AVX2; check first with `is_x86_feature_detected!("avx2")`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+pub fn demosaic_avx2<T: Sample>(
+    method: Method,
+    input: &MosaicView<'_, T>,
+    output: &mut RgbViewMut<'_, T>,
+) -> Result<(), IspError> {
+    demosaic_body(method, input, output)
+}
+
+/// [`demosaic`]'s body, inlined into each entry so each is compiled for its target.
+#[inline(always)]
+fn demosaic_body<T: Sample>(
+    method: Method,
+    input: &MosaicView<'_, T>,
+    output: &mut RgbViewMut<'_, T>,
+) -> Result<(), IspError> {
     if !method.streams() {
         return Err(Method::not_streaming());
     }
-    let (_, h) = same_size(input, output)?;
+    let (w, h) = same_size(input, output)?;
+    if matches!(method, Method::Bilinear | Method::Mhc) && w >= 3 && h >= 3 {
+        // The parity-split kernel: the same output as the row function below, vectorised.
+        planar::whole_frame(method, input, output);
+        return Ok(());
+    }
     for y in 0..h {
         let rows: [&[T]; 5] =
             core::array::from_fn(|i| input.row(reflect(y as isize + i as isize - 2, h)));
@@ -236,10 +268,34 @@ pub fn bilinear<T: Sample>(
     border: Border,
     output: &mut RgbViewMut<'_, T>,
 ) -> Result<(), IspError> {
+    bilinear_body(input, border, output)
+}
+
+/// [`bilinear`] compiled for x86-64 CPUs with AVX2, as [`demosaic_avx2`] is [`demosaic`].
+///
+/// # Safety
+///
+/// The CPU must support AVX2; check first with `is_x86_feature_detected!("avx2")`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+pub fn bilinear_avx2<T: Sample>(
+    input: &MosaicView<'_, T>,
+    border: Border,
+    output: &mut RgbViewMut<'_, T>,
+) -> Result<(), IspError> {
+    bilinear_body(input, border, output)
+}
+
+/// [`bilinear`]'s body, inlined into each entry.
+#[inline(always)]
+fn bilinear_body<T: Sample>(
+    input: &MosaicView<'_, T>,
+    border: Border,
+    output: &mut RgbViewMut<'_, T>,
+) -> Result<(), IspError> {
     let (w, h) = same_size(input, output)?;
-    let pattern = input.pattern();
     match border {
-        Border::Reflect101 => demosaic(Method::Bilinear, input, output)?,
+        Border::Reflect101 => demosaic_body(Method::Bilinear, input, output)?,
         Border::OpenCv => {
             if w < 3 || h < 3 {
                 for y in 0..h {
@@ -247,10 +303,11 @@ pub fn bilinear<T: Sample>(
                 }
                 return Ok(());
             }
+            // Inside the one-pixel border both borders give the same values (every
+            // neighbour exists); OpenCV's border then copies the next column and row inward.
+            demosaic_body(Method::Bilinear, input, output)?;
             for y in 1..h - 1 {
-                let rows = [input.row(y - 1), input.row(y), input.row(y + 1)];
                 let out = output.row_mut(y);
-                bilinear_row(rows, y, pattern, |x| (x - 1, x + 1), out, 1..w - 1);
                 out.copy_within(3..6, 0);
                 out.copy_within(3 * (w - 2)..3 * (w - 1), 3 * (w - 1));
             }
