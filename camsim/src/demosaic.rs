@@ -105,7 +105,7 @@ impl Demosaic {
                 directional_dispatch(&mosaic, &mut view, &mut vec![0f32; scratch()?])?
             }
             (Method::Directional, true) => {
-                directional_fixed(&mosaic, &mut view, &mut vec![0i32; scratch()?])?
+                directional_fixed_dispatch(&mosaic, &mut view, &mut vec![0i32; scratch()?])?
             }
         }
         Ok(())
@@ -127,6 +127,28 @@ pub fn directional_dispatch<T: Sample>(
         return unsafe { isp_core::demosaic::directional::directional_avx2(mosaic, out, scratch) };
     }
     directional(mosaic, out, scratch)
+}
+
+/// The integer directional method in the fastest build this CPU runs: the AVX-512 build
+/// where the CPU has it (bit-identical output), the baseline build otherwise.
+pub fn directional_fixed_dispatch<T: IntSample>(
+    mosaic: &MosaicView<'_, T>,
+    out: &mut RgbViewMut<'_, T>,
+    scratch: &mut [i32],
+) -> Result<(), isp_core::IspError> {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx512f")
+        && std::arch::is_x86_feature_detected!("avx512bw")
+        && std::arch::is_x86_feature_detected!("avx512vl")
+        && std::arch::is_x86_feature_detected!("avx512dq")
+    {
+        // SAFETY: the CPU has just been found to support the four features
+        // `directional_fixed_avx512` is compiled for.
+        return unsafe {
+            isp_core::demosaic::directional::directional_fixed_avx512(mosaic, out, scratch)
+        };
+    }
+    directional_fixed(mosaic, out, scratch)
 }
 
 /// Bilinear in the fastest build this CPU runs, as [`directional_dispatch`] chooses.

@@ -313,6 +313,55 @@ fn directional_avx2_is_bit_identical() {
     }
 }
 
+/// The AVX-512 build of the integer directional method gives the same output, bit for bit, as
+/// the baseline build (its divisions go through `f32` quotients in both, corrected to the exact
+/// integer quotient), on random 16- and 8-bit frames of many sizes and every pattern. Runs
+/// where the CPU has AVX-512 (this project's CI machine does); elsewhere it says so.
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn directional_fixed_avx512_is_bit_identical() {
+    use isp_core::demosaic::directional::{directional_fixed, directional_fixed_avx512};
+    let avx512 = std::arch::is_x86_feature_detected!("avx512f")
+        && std::arch::is_x86_feature_detected!("avx512bw")
+        && std::arch::is_x86_feature_detected!("avx512vl")
+        && std::arch::is_x86_feature_detected!("avx512dq");
+    if !avx512 {
+        eprintln!("directional_fixed_avx512_is_bit_identical: no AVX-512 on this CPU, not run");
+        return;
+    }
+    let mut s = 11u64;
+    for (w, h) in [(2, 2), (3, 5), (17, 9), (40, 33), (301, 24)] {
+        for p in CfaPattern::ALL {
+            let m: Vec<u16> = (0..w * h)
+                .map(|_| {
+                    s = s.wrapping_mul(6364136223846793005).wrapping_add(1);
+                    (s >> 48) as u16
+                })
+                .collect();
+            let m8: Vec<u8> = m.iter().map(|v| (v >> 8) as u8).collect();
+            let mut scratch = vec![0i32; scratch_len(w).unwrap()];
+            let mosaic = MosaicView::new(&m, w, h, w, p).unwrap();
+            let mut base = vec![0u16; 3 * w * h];
+            let mut view = RgbViewMut::new(&mut base, w, h, 3 * w).unwrap();
+            directional_fixed(&mosaic, &mut view, &mut scratch).unwrap();
+            let mut wide = vec![0u16; 3 * w * h];
+            let mut view = RgbViewMut::new(&mut wide, w, h, 3 * w).unwrap();
+            // SAFETY: the AVX-512 features were detected above.
+            unsafe { directional_fixed_avx512(&mosaic, &mut view, &mut scratch) }.unwrap();
+            assert!(base == wide, "16-bit {w} x {h} {p:?}");
+            let mosaic = MosaicView::new(&m8, w, h, w, p).unwrap();
+            let mut base = vec![0u8; 3 * w * h];
+            let mut view = RgbViewMut::new(&mut base, w, h, 3 * w).unwrap();
+            directional_fixed(&mosaic, &mut view, &mut scratch).unwrap();
+            let mut wide = vec![0u8; 3 * w * h];
+            let mut view = RgbViewMut::new(&mut wide, w, h, 3 * w).unwrap();
+            // SAFETY: as above.
+            unsafe { directional_fixed_avx512(&mosaic, &mut view, &mut scratch) }.unwrap();
+            assert!(base == wide, "8-bit {w} x {h} {p:?}");
+        }
+    }
+}
+
 /// Noisy flat fields at several ISO-like noise levels: the output's per-channel standard
 /// deviation stays within 1.05x the input's (the filters' L2 norms are all <= 1).
 #[test]
