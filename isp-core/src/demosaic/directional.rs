@@ -408,6 +408,21 @@ impl<'s, A: Arithmetic> Stream<'s, A> {
         self.next += 1;
     }
 
+    /// The stored mosaic rows around frame row `y` (rows `y - 1`, `y`, `y + 1`, reflected),
+    /// each a padded row split by parity, and the length of each half: padded column
+    /// `x + HALO` of frame column `x` is at `(x + HALO) / 2`, in the odd half for odd `x`.
+    /// Held while `y` is the row written last (as for [`Stream::sample`]).
+    #[inline(always)]
+    pub(crate) fn mosaic_around(&self, y: usize) -> ([&[A::E]; 3], usize) {
+        let r = y + HALO;
+        let rows = [
+            self.planes.mosaic.row(r - 1),
+            self.planes.mosaic.row(r),
+            self.planes.mosaic.row(r + 1),
+        ];
+        (rows, self.frame.half)
+    }
+
     /// The sample the stream read at frame row `y`, column `x`, each within one of a row it
     /// wrote last (reflected at the frame's edges): the mosaic around an output pixel, for the
     /// pipeline's highlight stage.
@@ -784,7 +799,7 @@ fn pair_estimate(x: [f32; 4], g: [f32; 5]) -> f32 {
 
 /// A working sample of either method: what the stages both methods share need of it.
 pub(crate) trait Level:
-    Copy + core::ops::Add<Output = Self> + core::ops::Sub<Output = Self>
+    Copy + PartialOrd + core::ops::Add<Output = Self> + core::ops::Sub<Output = Self>
 {
     /// `|self - other|`.
     fn distance(self, other: Self) -> Self;

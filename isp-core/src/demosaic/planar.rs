@@ -51,14 +51,6 @@ impl Halves {
         }
     }
 
-    /// Index of column `x` in a row of planes (even half, then odd half).
-    pub(crate) fn plane_index(self, x: usize) -> usize {
-        match x % 2 {
-            0 => x / 2,
-            _ => self.even + x / 2,
-        }
-    }
-
     /// Writes the four reflected samples of a row whose halves are filled (width at least 4).
     pub(crate) fn pad<T: Copy>(self, row: &mut [T]) {
         let (ne, no, o) = (self.even, self.odd, self.odd_start());

@@ -24,11 +24,12 @@
 use core::ops::Range;
 
 use super::{FixedPipeline, FloatPipeline, OutputSample, Path, CHUNK, IDENTITY, MOSAIC_ROWS};
-use crate::demosaic::directional::{OutputRow, Stream};
-use crate::demosaic::planar::{demosaic_row, Halves, SiteRows};
+use crate::demosaic::directional::{Arithmetic, OutputRow, Stream, HALO};
+use crate::demosaic::planar::{demosaic_row, Halves};
 use crate::demosaic::{reflect, Method};
 use crate::dpc;
 use crate::frame::{RawFrame, RgbViewMut};
+use crate::highlights::{self, KneeQ16};
 use crate::{ccm, IspError};
 
 /// Narrowest frame the planar schedule takes; the padding reflects within the first and last
@@ -36,7 +37,7 @@ use crate::{ccm, IspError};
 const MIN_WIDTH: usize = 8;
 
 /// What the planar schedule needs of a path beyond the engine's [`Path`].
-pub(super) trait Planar: Path {
+pub(super) trait Planar: Path<P: PartialOrd> {
     /// The pointwise stage's constants for one CFA position.
     type Steps: Copy;
     /// The colour matrix in the form the planar loop applies.
@@ -54,6 +55,12 @@ pub(super) trait Planar: Path {
     fn colour_matrix(m: &Self::Matrix, rgb: [Self::P; 3]) -> [Self::P; 3];
     /// The 8-bit sRGB code of a linear value.
     fn code8(&self, v: Self::P) -> u32;
+    /// The highlight stage's parameters, if it is on.
+    type Knee: Copy;
+    /// The highlight stage's parameters, if it is on.
+    fn knee(&self) -> Option<Self::Knee>;
+    /// [`Path::highlights`] without a branch (the same values), so its loop vectorises.
+    fn highlights_lanes(knee: Self::Knee, rgb: [Self::P; 3], brightest: Self::P) -> [Self::P; 3];
 }
 
 /// Whether the planar schedule runs `path` on `raw` for output samples `O`, with the frame
@@ -189,6 +196,17 @@ impl Planar for FixedPipeline<'_> {
     fn code8(&self, v: u16) -> u32 {
         self.encode.lookup8(v)
     }
+
+    type Knee = KneeQ16;
+
+    fn knee(&self) -> Option<KneeQ16> {
+        self.highlights
+    }
+
+    #[inline(always)]
+    fn highlights_lanes(knee: KneeQ16, rgb: [u16; 3], brightest: u16) -> [u16; 3] {
+        knee.neutralise_lanes(rgb, brightest)
+    }
 }
 
 /// The float path's pointwise stage for one CFA position: black, white minus black, ISO gain
@@ -252,6 +270,18 @@ impl Planar for FloatPipeline<'_> {
     fn code8(&self, v: f32) -> u32 {
         u32::from(self.codes8.code(v))
     }
+
+    type Knee = f32;
+
+    fn knee(&self) -> Option<f32> {
+        let knee = self.config.highlight_knee;
+        (knee < 1.0).then_some(knee)
+    }
+
+    #[inline(always)]
+    fn highlights_lanes(knee: f32, rgb: [f32; 3], brightest: f32) -> [f32; 3] {
+        highlights::neutralise_f32_lanes(rgb, brightest, knee)
+    }
 }
 
 /// Scratch elements the schedule uses: five padded mosaic rows and one planar RGB row
@@ -284,6 +314,7 @@ pub(super) fn run<A: Planar, O: OutputSample>(
     let planes = &mut rest[..3 * w];
     let steps = path.steps(raw);
     let matrix = path.matrix();
+    let knee = path.knee();
     let mut tags = [usize::MAX; MOSAIC_ROWS];
     for y in rows.clone() {
         for dm in -2..=2isize {
@@ -301,8 +332,8 @@ pub(super) fn run<A: Planar, O: OutputSample>(
             &ring[slot * row_len..(slot + 1) * row_len]
         });
         demosaic_row(path.method(), source, halves, pattern, y, planes);
-        if path.highlights_on() {
-            highlights_row(path, source, halves, planes);
+        if let Some(knee) = knee {
+            highlights_row::<A>(knee, source, halves, planes);
         }
         finish_row(
             path,
@@ -419,6 +450,7 @@ fn run_directional<A: Planar, O: OutputSample>(
     };
     let steps = path.steps(raw);
     let matrix = path.matrix();
+    let knee = path.knee();
     for y in rows.clone() {
         if stream.next_output() != Some(y) {
             stream.restart(y);
@@ -442,8 +474,8 @@ fn run_directional<A: Planar, O: OutputSample>(
             }
             stream.step(source, None);
         }
-        if path.highlights_on() {
-            directional_highlights(path, &stream, y, halves, planes);
+        if let Some(knee) = knee {
+            directional_highlights::<A>(knee, &stream, y, halves, planes);
         }
         finish_row(
             path,
@@ -456,12 +488,13 @@ fn run_directional<A: Planar, O: OutputSample>(
     Ok(())
 }
 
-/// The highlight stage after the directional method: each pixel with the largest prepared
-/// sample of the 3x3 around it, from the rows the stream holds (as the general engine reads
-/// them). Scalar and out of line, like [`highlights_row`].
-#[inline(never)]
+/// The highlight stage after the directional method: each pixel with the largest sample of
+/// the 3x3 around it in the rows the stream holds (its working values, which leave it as the
+/// prepared samples; the maximum leaves as the maximum, since leaving is monotone), as the
+/// general engine reads them. Without a branch per pixel, like [`highlights_row`].
+#[inline(always)]
 fn directional_highlights<A: Planar>(
-    path: &A,
+    knee: A::Knee,
     stream: &Stream<'_, A::Directional>,
     y: usize,
     halves: Halves,
@@ -470,30 +503,67 @@ fn directional_highlights<A: Planar>(
     let w = halves.even + halves.odd;
     let (r, rest) = planes.split_at_mut(w);
     let (g, b) = rest.split_at_mut(w);
-    let y = y as isize;
-    for x in 0..w {
-        let i = halves.plane_index(x);
-        let neighbourhood: [A::P; 9] = core::array::from_fn(|k| {
-            stream.sample(y + k as isize / 3 - 1, x as isize + k as isize % 3 - 1)
-        });
-        [r[i], g[i], b[i]] = path.highlights([r[i], g[i], b[i]], A::brightest(neighbourhood));
+    let (rows, half) = stream.mosaic_around(y);
+    let max = |a, b| if a > b { a } else { b };
+    // Frame column 2i (even) is at index i + HALO / 2 of the even half, its neighbours at
+    // i + HALO / 2 - 1 and i + HALO / 2 of the odd half; frame column 2i + 1 the other way
+    // round, its right neighbour one further on.
+    const AT: usize = HALO / 2;
+    for parity in 0..2 {
+        let (start, n) = match parity {
+            0 => (0, halves.even),
+            _ => (halves.even, halves.odd),
+        };
+        let [up, mid, down] = rows;
+        fn span<E>(row: &[E], from: usize, n: usize) -> &[E] {
+            &row[from..from + n]
+        }
+        let span = |row, from| span(row, from, n);
+        let (same_at, left_at, right_at) = match parity {
+            0 => (AT, half + AT - 1, half + AT),
+            _ => (half + AT, AT, AT + 1),
+        };
+        let (u, m, d) = (span(up, same_at), span(mid, same_at), span(down, same_at));
+        let (ul, ml, dl) = (span(up, left_at), span(mid, left_at), span(down, left_at));
+        let (ur, mr, dr) = (
+            span(up, right_at),
+            span(mid, right_at),
+            span(down, right_at),
+        );
+        let (r, g, b) = (
+            &mut r[start..start + n],
+            &mut g[start..start + n],
+            &mut b[start..start + n],
+        );
+        for i in 0..n {
+            let brightest = max(
+                max(max(ul[i], u[i]), max(ur[i], ml[i])),
+                max(max(m[i], mr[i]), max(max(dl[i], d[i]), dr[i])),
+            );
+            let brightest = <A::Directional as Arithmetic>::leave(brightest);
+            [r[i], g[i], b[i]] = A::highlights_lanes(knee, [r[i], g[i], b[i]], brightest);
+        }
     }
 }
 
 /// The highlight stage on the demosaiced planes: each pixel with the largest prepared sample
-/// of the 3x3 around it (the reflected columns at the edges, as the engine reads them).
-// Out of line: inlined into the AVX2 entry, its scalar code changed how LLVM compiled the
-// rest of the loop (camsim's fixed MHC with the stage off went from 21 to 28 ms, also with a
-// loop instantiated per stage setting). Out of line it is slower itself (13 ns per pixel on
-// the synthetic frame, whose samples straddle the knee, a branch per pixel): a branch-free
-// vector form is still to do.
-#[inline(never)]
-fn highlights_row<A: Planar>(path: &A, source: [&[A::P]; 5], halves: Halves, planes: &mut [A::P]) {
+/// of the 3x3 around it (the reflected columns at the edges, as the engine reads them),
+/// without a branch per pixel ([`Planar::highlights_lanes`]), so the loop vectorises.
+#[inline(always)]
+fn highlights_row<A: Planar>(
+    knee: A::Knee,
+    source: [&[A::P]; 5],
+    halves: Halves,
+    planes: &mut [A::P],
+) {
     let w = halves.even + halves.odd;
     let (r, rest) = planes.split_at_mut(w);
     let (g, b) = rest.split_at_mut(w);
+    // A select, not `Ord::max`/`f32::max` (a call, or a NaN rule): the samples are never NaN.
+    let max = |a: A::P, b: A::P| if a > b { a } else { b };
     for parity in 0..2 {
-        let rows: SiteRows<'_, A::P> = source.map(|r| halves.sites(r, parity));
+        let [(up, up_other), (mid, mid_other), (down, down_other)] =
+            [1, 2, 3].map(|k| halves.sites(source[k], parity));
         let (start, n) = match parity {
             0 => (0, halves.even),
             _ => (halves.even, halves.odd),
@@ -503,21 +573,24 @@ fn highlights_row<A: Planar>(path: &A, source: [&[A::P]; 5], halves: Halves, pla
             &mut g[start..start + n],
             &mut b[start..start + n],
         );
-        for (i, ((r, g), b)) in r.iter_mut().zip(g.iter_mut()).zip(b.iter_mut()).enumerate() {
-            let [(up, up_other), (mid, mid_other), (down, down_other)] =
-                [rows[1], rows[2], rows[3]];
-            let neighbourhood = [
-                up_other[i],
-                up[i + 1],
-                up_other[i + 1],
-                mid_other[i],
-                mid[i + 1],
-                mid_other[i + 1],
-                down_other[i],
-                down[i + 1],
-                down_other[i + 1],
-            ];
-            [*r, *g, *b] = path.highlights([*r, *g, *b], A::brightest(neighbourhood));
+        let (up, mid, down) = (&up[..n + 2], &mid[..n + 2], &down[..n + 2]);
+        let (up_other, mid_other, down_other) = (
+            &up_other[..n + 1],
+            &mid_other[..n + 1],
+            &down_other[..n + 1],
+        );
+        for i in 0..n {
+            let brightest = max(
+                max(
+                    max(up_other[i], up[i + 1]),
+                    max(up_other[i + 1], mid_other[i]),
+                ),
+                max(
+                    max(mid[i + 1], mid_other[i + 1]),
+                    max(max(down_other[i], down[i + 1]), down_other[i + 1]),
+                ),
+            );
+            [r[i], g[i], b[i]] = A::highlights_lanes(knee, [r[i], g[i], b[i]], brightest);
         }
     }
 }
