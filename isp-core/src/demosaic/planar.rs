@@ -1,8 +1,8 @@
 //! Demosaicing over parity-split rows: the filters of bilinear and Malvar-He-Cutler written
 //! out over named neighbours, run one loop per column parity, which the compiler vectorises.
-//! The pipeline's planar schedule ([`crate::pipeline`]) and the whole-frame [`demosaic`]
-//! (super::demosaic) both run them; their output equals [`row`](super::row)'s bit for bit
-//! (the same sums in the same order; tested).
+//! The pipeline's planar schedule ([`crate::pipeline`]) and the whole-frame
+//! [`demosaic`](super::demosaic) both run them; their output equals [`row`](super::row)'s bit
+//! for bit (the same sums in the same order; tested).
 //!
 //! A prepared row is held as its even columns, then its odd columns, each with one sample
 //! beyond either end ([`Halves`]). Within one half every sample has the same CFA position, so
