@@ -129,6 +129,16 @@ pub fn directional_dispatch<T: Sample>(
     directional(mosaic, out, scratch)
 }
 
+/// Whether the CPU has the AVX-512 features (F, BW, VL, DQ) isp-core's `_avx512` builds are
+/// compiled for; the one check both this module and `develop` make.
+#[cfg(target_arch = "x86_64")]
+pub(crate) fn has_avx512() -> bool {
+    std::arch::is_x86_feature_detected!("avx512f")
+        && std::arch::is_x86_feature_detected!("avx512bw")
+        && std::arch::is_x86_feature_detected!("avx512vl")
+        && std::arch::is_x86_feature_detected!("avx512dq")
+}
+
 /// The integer directional method in the fastest build this CPU runs: the AVX-512 build
 /// where the CPU has it (bit-identical output), the baseline build otherwise.
 pub fn directional_fixed_dispatch<T: IntSample>(
@@ -137,11 +147,7 @@ pub fn directional_fixed_dispatch<T: IntSample>(
     scratch: &mut [i32],
 ) -> Result<(), isp_core::IspError> {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx512f")
-        && std::arch::is_x86_feature_detected!("avx512bw")
-        && std::arch::is_x86_feature_detected!("avx512vl")
-        && std::arch::is_x86_feature_detected!("avx512dq")
-    {
+    if has_avx512() {
         // SAFETY: the CPU has just been found to support the four features
         // `directional_fixed_avx512` is compiled for.
         return unsafe {

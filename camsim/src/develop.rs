@@ -27,6 +27,8 @@ use raw_formats::dng::{Dng, Framing};
 use raw_formats::framing::Orientation;
 use raw_formats::{FormatError, Image, RawImage};
 
+#[cfg(target_arch = "x86_64")]
+use crate::demosaic::has_avx512;
 use crate::error::Error;
 use crate::isp_options::{CropChoice, IspOptions, ShadingGrid, WhiteBalance};
 
@@ -725,16 +727,6 @@ impl<'a> Runner<'a> {
             }
         }
     }
-}
-
-/// Whether the CPU has the AVX-512 features isp-core's `run_input_avx512` entries are
-/// compiled for.
-#[cfg(target_arch = "x86_64")]
-fn has_avx512() -> bool {
-    std::arch::is_x86_feature_detected!("avx512f")
-        && std::arch::is_x86_feature_detected!("avx512bw")
-        && std::arch::is_x86_feature_detected!("avx512vl")
-        && std::arch::is_x86_feature_detected!("avx512dq")
 }
 
 /// The fixed pipeline in the fastest build this CPU runs: the AVX-512 build, else the AVX2

@@ -44,20 +44,18 @@
 /// from `knee` to 1. A knee of 1 (or more) changes nothing.
 #[inline]
 pub fn neutralise_f32(rgb: [f32; 3], neighbourhood: f32, knee: f32) -> [f32; 3] {
-    let m = rgb[0].max(rgb[1]).max(rgb[2]);
-    let n = m.max(neighbourhood);
-    if n <= knee || knee >= 1.0 {
+    if knee >= 1.0 {
         return rgb;
     }
-    let k = ((n - knee) / (1.0 - knee)).min(1.0);
-    rgb.map(|v| v + k * (m - v))
+    neutralise_f32_below_clip(rgb, neighbourhood, knee)
 }
 
-/// [`neutralise_f32`] without a branch, for loops that run it lane by lane: the same value for
-/// every input in `[0, 1]` and a knee below 1 (below the knee `k` is 0, and `v + 0 * (m - v)`
-/// is `v`; tested). Maxima and minima are selects, one instruction each on x86.
+/// [`neutralise_f32`] for a knee below 1, without a branch, so the loops that run it per pixel
+/// vectorise: below the knee the fade `k` is 0, and `v + 0 * (m - v)` is `v` (tested against
+/// the formula with an early return). Maxima and minima are selects, one instruction each on
+/// x86 (`f32::max` adds a NaN rule).
 #[inline(always)]
-pub(crate) fn neutralise_f32_lanes(rgb: [f32; 3], neighbourhood: f32, knee: f32) -> [f32; 3] {
+pub(crate) fn neutralise_f32_below_clip(rgb: [f32; 3], neighbourhood: f32, knee: f32) -> [f32; 3] {
     let max = |a: f32, b: f32| if a > b { a } else { b };
     let [r, g, b] = rgb;
     let m = max(max(r, g), b);
@@ -94,32 +92,15 @@ impl KneeQ16 {
     }
 
     /// The stage on 16-bit linear RGB with the largest raw sample around the pixel, rounding
-    /// to nearest.
-    #[inline]
-    pub fn neutralise(&self, rgb: [u16; 3], neighbourhood: u16) -> [u16; 3] {
-        let m = rgb[0].max(rgb[1]).max(rgb[2]);
-        let above = (u64::from(m.max(neighbourhood)) << 16).saturating_sub(self.knee_q16);
-        if above == 0 {
-            return rgb;
-        }
-        // k in Q16, 65536 = fully neutral; above <= span, so the product is below 2^49.
-        let k = ((above * self.reciprocal + (1 << 31)) >> 32).min(1 << 16);
-        rgb.map(|v| {
-            let lift = (u64::from(m - v) * k + (1 << 15)) >> 16;
-            (u64::from(v) + lift).min(u64::from(m)) as u16
-        })
-    }
-}
-
-impl KneeQ16 {
-    /// [`KneeQ16::neutralise`] without a branch, for loops that run it lane by lane: the same
-    /// value for every input (below the knee `k` is 0, so the lift is 0; tested).
+    /// to nearest. Without a branch, so the loops that run it per pixel vectorise: below the
+    /// knee `k` is 0 and so is every lift (tested against the formula with an early return).
     #[inline(always)]
-    pub(crate) fn neutralise_lanes(&self, rgb: [u16; 3], neighbourhood: u16) -> [u16; 3] {
+    pub fn neutralise(&self, rgb: [u16; 3], neighbourhood: u16) -> [u16; 3] {
         let max = |a: u16, b: u16| if a > b { a } else { b };
         let [r, g, b] = rgb;
         let m = max(max(r, g), b);
         let above = (u64::from(max(m, neighbourhood)) << 16).saturating_sub(self.knee_q16);
+        // k in Q16, 65536 = fully neutral; above <= span, so the product is below 2^49.
         let k = (above * self.reciprocal + (1 << 31)) >> 32;
         let k = (if k < 1 << 16 { k } else { 1 << 16 }) as u32;
         // In `u32`: (m - v) k + 2^15 <= 65535 * 65536 + 2^15 < 2^32, and v + lift <= m.
@@ -139,8 +120,34 @@ impl KneeQ16 {
 mod tests {
     use super::*;
 
-    /// The branch-free forms give the stages' values: on a grid of colours, neighbourhoods and
-    /// knees (including values at and next to the knee), and on random values.
+    /// The stage's formula as documented, with its early return below the knee: what the
+    /// branch-free float stage must equal.
+    fn reference_f32(rgb: [f32; 3], neighbourhood: f32, knee: f32) -> [f32; 3] {
+        let m = rgb[0].max(rgb[1]).max(rgb[2]);
+        let n = m.max(neighbourhood);
+        if n <= knee || knee >= 1.0 {
+            return rgb;
+        }
+        let k = ((n - knee) / (1.0 - knee)).min(1.0);
+        rgb.map(|v| v + k * (m - v))
+    }
+
+    /// The same for the fixed stage, in `u64` throughout.
+    fn reference_q16(q: &KneeQ16, rgb: [u16; 3], neighbourhood: u16) -> [u16; 3] {
+        let m = rgb[0].max(rgb[1]).max(rgb[2]);
+        let above = (u64::from(m.max(neighbourhood)) << 16).saturating_sub(q.knee_q16);
+        if above == 0 {
+            return rgb;
+        }
+        let k = ((above * q.reciprocal + (1 << 31)) >> 32).min(1 << 16);
+        rgb.map(|v| {
+            let lift = (u64::from(m - v) * k + (1 << 15)) >> 16;
+            (u64::from(v) + lift).min(u64::from(m)) as u16
+        })
+    }
+
+    /// The branch-free stages give the formulas' values: on a grid of colours, neighbourhoods
+    /// and knees (including values at and next to the knee), and on random values.
     #[test]
     fn lane_forms_equal_the_stages() {
         let mut state = 0x9e37_79b9_7f4a_7c15u64;
@@ -173,11 +180,11 @@ mod tests {
                     for &b in &values[..8] {
                         for &n in &values[..9] {
                             let rgb = [r, g, b];
-                            assert_eq!(q.neutralise_lanes(rgb, n), q.neutralise(rgb, n));
+                            assert_eq!(q.neutralise(rgb, n), reference_q16(&q, rgb, n));
                             let unit = rgb.map(|v| f32::from(v) / 65535.0);
                             let nf = f32::from(n) / 65535.0;
-                            let lanes = neutralise_f32_lanes(unit, nf, knee);
-                            let stage = neutralise_f32(unit, nf, knee);
+                            let lanes = neutralise_f32(unit, nf, knee);
+                            let stage = reference_f32(unit, nf, knee);
                             assert_eq!(lanes.map(f32::to_bits), stage.map(f32::to_bits));
                         }
                     }

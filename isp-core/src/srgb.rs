@@ -185,11 +185,10 @@ impl EncodeLut {
 /// this saves over buckets of 2^17 took a tenth of its time. Size: 17 KiB.
 #[derive(Clone, Copy)]
 pub struct EncodeThresholds8 {
-    /// `thresholds[k]` for `k` in `1..=255`; `thresholds[0]` is 0 and `thresholds[256]` is
-    /// above every input, so a search never runs off the end.
-    thresholds: [f32; 257],
-    /// The same thresholds as bit patterns (which order non-negative floats as their values
-    /// do): the lookup compares integers, and its index (at most 256) needs no bounds check.
+    /// The smallest input of code `k` for `k` in `1..=255`, as its bit pattern (bit patterns
+    /// order non-negative floats as their values do, so the lookup compares integers);
+    /// `threshold_bits[0]` is 0 and `threshold_bits[256]` (infinity) is above every input, so
+    /// the lookup's index (at most 256) needs no bounds check.
     threshold_bits: [u32; 257],
     /// The code of the first float of each bucket of 2^16 (`x.to_bits() >> 16`), up to 1.0;
     /// a power of two long, so a masked index needs no bounds check.
@@ -251,10 +250,8 @@ impl EncodeThresholds8 {
             }
             *b = code as u8;
         }
-        let threshold_bits = thresholds.map(f32::to_bits);
         Self {
-            thresholds,
-            threshold_bits,
+            threshold_bits: thresholds.map(f32::to_bits),
             bucket,
         }
     }
@@ -273,7 +270,7 @@ impl EncodeThresholds8 {
     }
 
     /// The smallest linear input of each code `1..=255` (for tests and tables).
-    pub fn thresholds(&self) -> &[f32] {
-        &self.thresholds[1..256]
+    pub fn thresholds(&self) -> [f32; 255] {
+        core::array::from_fn(|k| f32::from_bits(self.threshold_bits[k + 1]))
     }
 }

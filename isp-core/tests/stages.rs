@@ -512,7 +512,7 @@ fn encode_thresholds_give_the_exact_codes() {
     let t = codes.thresholds();
     assert_eq!(t.len(), 255);
     assert!(t.windows(2).all(|p| p[0] < p[1]));
-    for &threshold in t {
+    for &threshold in &t {
         let bits = threshold.to_bits();
         for b in bits.saturating_sub(1 << 16)..=(bits + (1 << 16)).min(1.0f32.to_bits()) {
             let x = f32::from_bits(b);

@@ -55,12 +55,13 @@ pub(super) trait Planar: Path<P: PartialOrd> {
     fn colour_matrix(m: &Self::Matrix, rgb: [Self::P; 3]) -> [Self::P; 3];
     /// The 8-bit sRGB code of a linear value.
     fn code8(&self, v: Self::P) -> u32;
-    /// The highlight stage's parameters, if it is on.
+    /// The highlight stage's parameters.
     type Knee: Copy;
-    /// The highlight stage's parameters, if it is on.
+    /// The highlight stage's parameters, if it is on (fetched once per frame).
     fn knee(&self) -> Option<Self::Knee>;
-    /// [`Path::highlights`] without a branch (the same values), so its loop vectorises.
-    fn highlights_lanes(knee: Self::Knee, rgb: [Self::P; 3], brightest: Self::P) -> [Self::P; 3];
+    /// [`Path::highlights`] with those parameters: the stage's branch-free form, so its loop
+    /// vectorises.
+    fn highlights_at_knee(knee: Self::Knee, rgb: [Self::P; 3], brightest: Self::P) -> [Self::P; 3];
 }
 
 /// Whether the planar schedule runs `path` on `raw` for output samples `O`, with the frame
@@ -204,8 +205,8 @@ impl Planar for FixedPipeline<'_> {
     }
 
     #[inline(always)]
-    fn highlights_lanes(knee: KneeQ16, rgb: [u16; 3], brightest: u16) -> [u16; 3] {
-        knee.neutralise_lanes(rgb, brightest)
+    fn highlights_at_knee(knee: KneeQ16, rgb: [u16; 3], brightest: u16) -> [u16; 3] {
+        knee.neutralise(rgb, brightest)
     }
 }
 
@@ -279,8 +280,8 @@ impl Planar for FloatPipeline<'_> {
     }
 
     #[inline(always)]
-    fn highlights_lanes(knee: f32, rgb: [f32; 3], brightest: f32) -> [f32; 3] {
-        highlights::neutralise_f32_lanes(rgb, brightest, knee)
+    fn highlights_at_knee(knee: f32, rgb: [f32; 3], brightest: f32) -> [f32; 3] {
+        highlights::neutralise_f32_below_clip(rgb, brightest, knee)
     }
 }
 
@@ -541,14 +542,14 @@ fn directional_highlights<A: Planar>(
                 max(max(m[i], mr[i]), max(max(dl[i], d[i]), dr[i])),
             );
             let brightest = <A::Directional as Arithmetic>::leave(brightest);
-            [r[i], g[i], b[i]] = A::highlights_lanes(knee, [r[i], g[i], b[i]], brightest);
+            [r[i], g[i], b[i]] = A::highlights_at_knee(knee, [r[i], g[i], b[i]], brightest);
         }
     }
 }
 
 /// The highlight stage on the demosaiced planes: each pixel with the largest prepared sample
 /// of the 3x3 around it (the reflected columns at the edges, as the engine reads them),
-/// without a branch per pixel ([`Planar::highlights_lanes`]), so the loop vectorises.
+/// without a branch per pixel ([`Planar::highlights_at_knee`]), so the loop vectorises.
 #[inline(always)]
 fn highlights_row<A: Planar>(
     knee: A::Knee,
@@ -590,7 +591,7 @@ fn highlights_row<A: Planar>(
                     max(max(down_other[i], down[i + 1]), down_other[i + 1]),
                 ),
             );
-            [r[i], g[i], b[i]] = A::highlights_lanes(knee, [r[i], g[i], b[i]], brightest);
+            [r[i], g[i], b[i]] = A::highlights_at_knee(knee, [r[i], g[i], b[i]], brightest);
         }
     }
 }
