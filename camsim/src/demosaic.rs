@@ -278,6 +278,28 @@ fn run_scaled(
     }
 }
 
+/// How much of a dataset [`bench_limited`] measures, and how long it times each method.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BenchLimits {
+    /// The first this many images (sorted by name); `None`: all.
+    pub images: Option<usize>,
+    /// Side of the square mosaic, tiled from the first image, whose demosaic is timed.
+    pub tile: usize,
+    /// Each method is timed for at least this long (and at least once); the best run counts.
+    pub min_seconds: f64,
+}
+
+impl Default for BenchLimits {
+    /// Every image; a 2048 x 2048 tile timed for half a second (`camsim bench demosaic`).
+    fn default() -> Self {
+        Self {
+            images: None,
+            tile: 2048,
+            min_seconds: 0.5,
+        }
+    }
+}
+
 /// Runs `methods` over the PNG images in `dataset` at `bits` (8 or 16), reporting progress
 /// on stderr through `progress`.
 pub fn bench(
@@ -286,12 +308,34 @@ pub fn bench(
     methods: &[Demosaic],
     progress: &mut dyn FnMut(&str),
 ) -> Result<Vec<BenchRow>, Error> {
+    bench_limited(dataset, bits, methods, BenchLimits::default(), progress)
+}
+
+/// [`bench()`] within `limits` (fewer images, a smaller tile, a shorter timing: `camsim bench
+/// --quick`).
+pub fn bench_limited(
+    dataset: &Path,
+    bits: u8,
+    methods: &[Demosaic],
+    limits: BenchLimits,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Vec<BenchRow>, Error> {
+    if limits.tile < 2 || limits.tile > 16384 || limits.min_seconds.is_nan() {
+        return Err(Error::Option {
+            option: "tile",
+            value: limits.tile.to_string(),
+            allowed: "2..=16384 pixels, and a timing that is a number".into(),
+        });
+    }
     let mut paths: Vec<_> = std::fs::read_dir(dataset)
         .map_err(|e| raw_formats::FormatError::io(dataset, e))?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")))
         .collect();
     paths.sort();
+    if let Some(n) = limits.images {
+        paths.truncate(n.max(1));
+    }
     if paths.is_empty() {
         return Err(Error::Option {
             option: "--dataset",
@@ -333,7 +377,7 @@ pub fn bench(
                 path.file_name().unwrap_or_default().to_string_lossy()
             ));
         }
-        let mpix_per_s = throughput(method, &images[0], bits)?;
+        let mpix_per_s = throughput(method, &images[0], bits, limits)?;
         rows.push(BenchRow {
             method: method.name(),
             bits,
@@ -344,10 +388,16 @@ pub fn bench(
     Ok(rows)
 }
 
-/// Single-thread Mpix/s on a 2048x2048 mosaic tiled from `image`: the best of repeated runs
-/// over at least half a second, timing only the demosaic call on buffers made beforehand.
-fn throughput(method: Demosaic, image: &Image, bits: u8) -> Result<f64, Error> {
-    let n = 2048;
+/// Single-thread Mpix/s on a square mosaic (`limits.tile` wide) tiled from `image`: the best
+/// of repeated runs over at least `limits.min_seconds`, timing only the demosaic call on
+/// buffers made beforehand.
+fn throughput(
+    method: Demosaic,
+    image: &Image,
+    bits: u8,
+    limits: BenchLimits,
+) -> Result<f64, Error> {
+    let n = limits.tile;
     let base = mosaic_from_rgb(image, CfaPattern::Rggb, if bits == 8 { 1 } else { 257 });
     // Tile with even offsets so the CFA phase is kept.
     let (tw, th) = (image.width & !1, image.height & !1);
@@ -356,17 +406,22 @@ fn throughput(method: Demosaic, image: &Image, bits: u8) -> Result<f64, Error> {
         .collect();
     if bits == 8 {
         let data: Vec<u8> = mosaic.iter().map(|v| *v as u8).collect();
-        time_method(method, &data, n)
+        time_method(method, &data, n, limits.min_seconds)
     } else {
-        time_method(method, &mosaic, n)
+        time_method(method, &mosaic, n, limits.min_seconds)
     }
 }
 
-fn time_method<T: IntSample>(method: Demosaic, mosaic: &[T], n: usize) -> Result<f64, Error> {
+fn time_method<T: IntSample>(
+    method: Demosaic,
+    mosaic: &[T],
+    n: usize,
+    min_seconds: f64,
+) -> Result<f64, Error> {
     let mut out = vec![T::default(); 3 * n * n];
     let mut best = f64::INFINITY;
     let started = Instant::now();
-    while started.elapsed().as_secs_f64() < 0.5 || best.is_infinite() {
+    while started.elapsed().as_secs_f64() < min_seconds || best.is_infinite() {
         let t = Instant::now();
         method.run(mosaic, n, n, CfaPattern::Rggb, &mut out)?;
         best = best.min(t.elapsed().as_secs_f64());

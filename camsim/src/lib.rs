@@ -10,6 +10,7 @@
 //! - [`demosaic`]: isp-core's demosaicing methods on files and their accuracy against speed
 //!   (`camsim demosaic`, `camsim bench demosaic`).
 //! - [`dof`]: the depth-of-field calculator (`camsim dof`).
+//! - [`suite`]: the benchmark suites, charted (`camsim bench` without a subcommand).
 //!
 //! Errors are [`Error`] values; quality figures come from [`isp_core::metrics`].
 #![warn(missing_docs)]
@@ -20,5 +21,6 @@ pub mod develop;
 pub mod dof;
 mod error;
 pub mod isp_options;
+pub mod suite;
 
 pub use error::Error;

@@ -43,11 +43,9 @@ enum Command {
     /// Fit a camera's colour matrix on a rendered ColorChecker (under A and D65 by default)
     /// and write it for camsim isp and camsim demo.
     Calibrate(calibrate::CalibrateArgs),
-    /// Measure accuracy against speed.
-    Bench {
-        #[command(subcommand)]
-        what: bench::BenchCommand,
-    },
+    /// Measure accuracy against speed. Without a subcommand: every suite, with its peers,
+    /// written as JSON, SVG charts and a Markdown summary into --out.
+    Bench(Box<bench::BenchArgs>),
 }
 
 fn main() -> ExitCode {
@@ -68,7 +66,7 @@ fn main() -> ExitCode {
         Command::Render(args) => render::run(args),
         Command::Demo(args) => demo::run(args),
         Command::Calibrate(args) => calibrate::run(args),
-        Command::Bench { what } => bench::run(what),
+        Command::Bench(args) => bench::run(args),
     };
     match result {
         Ok(out) => {
@@ -106,10 +104,10 @@ mod tests {
             panic!("not demo")
         };
         assert_eq!((demo.render.seed, demo.render.spp), (7, Some(3)));
-        let Command::Bench {
-            what: bench::BenchCommand::Render(b),
-        } = parse(&["camsim", "bench", "render"])
-        else {
+        let Command::Bench(args) = parse(&["camsim", "bench", "render"]) else {
+            panic!("not bench")
+        };
+        let Some(bench::BenchCommand::Render(b)) = &args.what else {
             panic!("not bench render")
         };
         let r = b.flags();
@@ -117,5 +115,15 @@ mod tests {
             (r.width, r.height, r.spp, r.seed, r.threads),
             (Some(256), Some(256), Some(16), 0, 1)
         );
+    }
+
+    /// `camsim bench` alone runs the suites; its flags do not go with a subcommand.
+    #[test]
+    fn bench_without_a_subcommand_runs_the_suites() {
+        let Command::Bench(args) = parse(&["camsim", "bench", "--quick", "--out", "x"]) else {
+            panic!("not bench")
+        };
+        assert!(args.what.is_none() && args.quick && args.out == std::path::Path::new("x"));
+        assert!(Cli::try_parse_from(["camsim", "bench", "--quick", "isp"]).is_err());
     }
 }

@@ -4,18 +4,40 @@
 use std::path::PathBuf;
 
 use camsim::demosaic::{self, Demosaic};
+use camsim::suite::{self, SuiteSettings};
 use camsim::Error;
 use clap::{Args, Subcommand};
 use host_tracer::render_bench::{bench, table, BenchSettings};
 
 use camsim::develop::{with_prepared, RawInput, Runner};
 use isp_core::pipeline::Input;
-use isp_core::CfaPattern;
-use raw_formats::RawImage;
 
 use crate::args::{DemosaicArg, RenderFlags};
 use crate::commands::isp::ProcessingArgs;
 use crate::progress::Progress;
+
+/// `camsim bench`: the suites, or one benchmark.
+#[derive(Args)]
+#[command(args_conflicts_with_subcommands = true)]
+pub struct BenchArgs {
+    /// One benchmark alone; without one, every suite runs and is charted.
+    #[command(subcommand)]
+    pub what: Option<BenchCommand>,
+    /// Folder for bench.json, summary.md and the SVG charts (created if missing).
+    #[arg(long, default_value = "camsim-bench")]
+    pub out: PathBuf,
+    /// A smoke run of about a minute: two images per set, small tiles, short timings (its
+    /// speeds are not comparable with a full run's).
+    #[arg(long)]
+    pub quick: bool,
+    /// Folder holding the kodak/ and mcmaster/ image sets.
+    #[arg(long, default_value = "data")]
+    pub data: PathBuf,
+    /// Measure nothing: draw the charts and the summary again from a run's bench.json
+    /// (into --out).
+    #[arg(long, value_name = "BENCH_JSON", conflicts_with_all = ["quick", "data"])]
+    pub from_json: Option<PathBuf>,
+}
 
 #[derive(Subcommand)]
 pub enum BenchCommand {
@@ -127,8 +149,11 @@ pub struct BenchRenderArgs {
     json: bool,
 }
 
-/// Runs a `camsim bench` subcommand.
-pub fn run(command: &BenchCommand) -> Result<String, Error> {
+/// Runs `camsim bench`: a subcommand, or the suites.
+pub fn run(args: &BenchArgs) -> Result<String, Error> {
+    let Some(command) = &args.what else {
+        return run_suites(args);
+    };
     match command {
         BenchCommand::Demosaic(args) => bench_demosaic(args),
         BenchCommand::Render(args) => bench_render(args),
@@ -166,29 +191,6 @@ struct PeerFigures {
     time_ratio: f64,
 }
 
-/// The frame `camsim bench isp` synthesises: 2592 x 1968, 10 bits, RGGB, black 64: gentle
-/// ramps per CFA colour with a little noise, as a scene has (not flat, not pure noise).
-fn synthetic_frame() -> Result<RawInput, Error> {
-    let (w, h) = (2592usize, 1968usize);
-    let mut state = 0x2545_f491u32;
-    let samples = (0..w * h)
-        .map(|i| {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
-            let (x, y) = (i % w, i / w);
-            let colour = (y & 1) + (x & 1);
-            let ramp = 64 + 150 * colour + x * 500 / w + y * 150 / h;
-            (ramp + (state % 24) as usize).min(1023) as u16
-        })
-        .collect();
-    let raw = RawImage::new(w, h, CfaPattern::Rggb, 10, [64; 4], 1023, samples)?;
-    let mut input = RawInput::plain(raw);
-    input.defaults.black_level = Some(vec![64]);
-    input.defaults.white_level = Some(1023);
-    Ok(input)
-}
-
 /// `--repeats` is at least 1 (the best of none is no figure).
 fn at_least_one_repeat(repeats: u32) -> Result<(), Error> {
     if repeats == 0 {
@@ -205,10 +207,10 @@ fn bench_isp(args: &BenchIspArgs) -> Result<String, Error> {
     at_least_one_repeat(args.repeats)?;
     let (input, name) = match &args.input {
         Some(path) => (RawInput::read(path)?, path.display().to_string()),
-        None => (
-            synthetic_frame()?,
-            "synthesised 2592x1968 10-bit RGGB".into(),
-        ),
+        None => {
+            let (frame, name) = suite::synthetic_raw()?;
+            (frame, name.into())
+        }
     };
     let processing = &args.processing;
     let options = processing.options()?;
@@ -339,9 +341,7 @@ fn opencv_peer(
     threads: usize,
     repeats: u32,
 ) -> Result<f64, String> {
-    let python = std::env::var_os("CAMSIM_ORACLE_PYTHON")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(".venv/bin/python"));
+    let python = oracle_python();
     if !python.exists() {
         return Err(format!(
             "no oracle Python at {} (scripts/test-all.sh creates .venv; or set CAMSIM_ORACLE_PYTHON)",
@@ -387,6 +387,65 @@ fn opencv_peer(
     reply["ms_per_frame"]
         .as_f64()
         .ok_or_else(|| "the OpenCV script gave no time".into())
+}
+
+/// The oracle environment's Python: $CAMSIM_ORACLE_PYTHON, else .venv/bin/python.
+fn oracle_python() -> PathBuf {
+    std::env::var_os("CAMSIM_ORACLE_PYTHON")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(".venv/bin/python"))
+}
+
+fn run_suites(args: &BenchArgs) -> Result<String, Error> {
+    if let Some(json) = &args.from_json {
+        let text =
+            std::fs::read_to_string(json).map_err(|e| raw_formats::FormatError::io(json, e))?;
+        let results: suite::SuiteResults = serde_json::from_str(&text)
+            .map_err(|e| Error::Message(format!("{}: {e}", json.display())))?;
+        std::fs::create_dir_all(&args.out)
+            .map_err(|e| raw_formats::FormatError::io(&args.out, e))?;
+        suite::write_all(&results, &args.out, &mut |_| {})?;
+        return Ok(format!(
+            "camsim bench: charts of the {} run of {} drawn into {}\n",
+            results.date,
+            json.display(),
+            args.out.display()
+        ));
+    }
+    let command = std::iter::once("camsim".to_string())
+        .chain(std::env::args().skip(1))
+        .collect::<Vec<_>>()
+        .join(" ");
+    let settings = SuiteSettings {
+        out: args.out.clone(),
+        quick: args.quick,
+        data: args.data.clone(),
+        python: oracle_python(),
+        require_peers: std::env::var_os("CAMSIM_REQUIRE_ORACLE").is_some_and(|v| v == "1"),
+        command,
+    };
+    let mut progress = Progress::new("bench");
+    let started = std::time::Instant::now();
+    let results = suite::run(&settings, &mut |what| {
+        progress.step(&format!(
+            "[{:5.1} s] {what}",
+            started.elapsed().as_secs_f64()
+        ))
+    })?;
+    progress.finish();
+    if let Some(why) = &results.peers_skipped {
+        eprintln!("note: the peers were skipped: {why}");
+    }
+    let mut out = format!(
+        "camsim bench: {:.0} s on {}; in {}:\n",
+        results.seconds,
+        results.machine.describe(),
+        args.out.display()
+    );
+    for name in suite::FILES {
+        out += &format!("  {}\n", args.out.join(name).display());
+    }
+    Ok(out)
 }
 
 fn bench_dng(args: &BenchDngArgs) -> Result<String, Error> {

@@ -1,0 +1,444 @@
+//! The suites' SVG charts (plotters' SVG backend: text is SVG text in a generic font family,
+//! so no font files are needed to draw or to view them).
+
+use std::path::Path;
+
+use plotters::prelude::*;
+
+use super::{caption, DemosaicPoint, SuiteResults};
+use crate::error::Error;
+
+type Drawn = Result<(), Box<dyn std::error::Error>>;
+
+/// Okabe and Ito's colour-blind-safe palette (Color Universal Design, 2002).
+const PALETTE: [RGBColor; 7] = [
+    RGBColor(0, 114, 178),
+    RGBColor(230, 159, 0),
+    RGBColor(0, 158, 115),
+    RGBColor(213, 94, 0),
+    RGBColor(204, 121, 167),
+    RGBColor(86, 180, 233),
+    RGBColor(0, 0, 0),
+];
+
+const FONT: &str = "sans-serif";
+
+fn failed(path: &Path) -> impl Fn(Box<dyn std::error::Error>) -> Error + '_ {
+    move |e| Error::Message(format!("drawing {}: {e}", path.display()))
+}
+
+/// The figure's area less a caption line at the bottom, with the title drawn.
+fn figure<'a>(
+    root: &DrawingArea<SVGBackend<'a>, plotters::coord::Shift>,
+    title: &str,
+    r: &SuiteResults,
+) -> Result<DrawingArea<SVGBackend<'a>, plotters::coord::Shift>, Box<dyn std::error::Error>> {
+    root.fill(&WHITE)?;
+    let (_, height) = root.dim_in_pixel();
+    let (body, foot) = root.split_vertically(height - 28);
+    foot.draw(&Text::new(
+        caption(r),
+        (10, 6),
+        (FONT, 13).into_font().color(&BLACK.mix(0.7)),
+    ))?;
+    Ok(body.titled(title, (FONT, 22))?)
+}
+
+/// Chart 1: Mpix/s (log) against CPSNR, a panel per set and depth, every method of every
+/// library, and the Pareto front (no other point is both faster and more accurate).
+pub fn demosaic_pareto(r: &SuiteResults, path: &Path) -> Result<(), Error> {
+    draw_pareto(r, path).map_err(failed(path))
+}
+
+fn draw_pareto(r: &SuiteResults, path: &Path) -> Drawn {
+    let root = SVGBackend::new(path, (1400, 1050)).into_drawing_area();
+    let body = figure(
+        &root,
+        "Demosaicing: speed against accuracy (one thread; up and right is better)",
+        r,
+    )?;
+    let libraries = ["camsim", "OpenCV", "colour-demosaicing"];
+    for (panel, (set, bits)) in body.split_evenly((2, 2)).iter().zip([
+        ("kodak", 8),
+        ("kodak", 16),
+        ("mcmaster", 8),
+        ("mcmaster", 16),
+    ]) {
+        let points: Vec<&DemosaicPoint> = r
+            .demosaic
+            .points
+            .iter()
+            .filter(|p| p.dataset == set && p.bits == bits && p.mpix_per_s > 0.0)
+            .collect();
+        if points.is_empty() {
+            continue;
+        }
+        let (lo_db, hi_db) = points.iter().fold((f64::MAX, f64::MIN), |(a, b), p| {
+            (a.min(p.cpsnr_db), b.max(p.cpsnr_db))
+        });
+        let (lo_s, hi_s) = points.iter().fold((f64::MAX, f64::MIN), |(a, b), p| {
+            (a.min(p.mpix_per_s), b.max(p.mpix_per_s))
+        });
+        let name = if set == "kodak" { "Kodak" } else { "McMaster" };
+        let images = points.iter().map(|p| p.images).max().unwrap_or(0);
+        let mut chart = ChartBuilder::on(panel)
+            .caption(format!("{name}, {bits}-bit ({images} images)"), (FONT, 17))
+            .margin(12)
+            .x_label_area_size(42)
+            .y_label_area_size(62)
+            .build_cartesian_2d(
+                (lo_db - 1.0)..(hi_db + 2.5),
+                (lo_s / 2.0..hi_s * 2.0).log_scale(),
+            )?;
+        chart
+            .configure_mesh()
+            .x_desc("CPSNR (dB)")
+            .y_desc("throughput (Mpix/s, log)")
+            .y_label_formatter(&|v| tick(*v))
+            .label_style((FONT, 12))
+            .draw()?;
+        // The Pareto front: sorted by accuracy, each point faster than every more accurate one.
+        let mut sorted = points.clone();
+        sorted.sort_by(|a, b| b.cpsnr_db.total_cmp(&a.cpsnr_db));
+        let mut front = Vec::new();
+        let mut fastest = 0.0;
+        for p in sorted {
+            if p.mpix_per_s > fastest {
+                fastest = p.mpix_per_s;
+                front.push((p.cpsnr_db, p.mpix_per_s));
+            }
+        }
+        chart
+            .draw_series(DashedLineSeries::new(
+                front,
+                6,
+                4,
+                BLACK.mix(0.5).stroke_width(1),
+            ))?
+            .label("Pareto front")
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], BLACK.mix(0.5)));
+        let offsets = label_offsets(&chart, &points);
+        for (k, library) in libraries.iter().enumerate() {
+            let colour = PALETTE[k];
+            let mine: Vec<_> = points
+                .iter()
+                .zip(&offsets)
+                .filter(|(p, _)| p.library == *library)
+                .collect();
+            if mine.is_empty() {
+                continue;
+            }
+            chart
+                .draw_series(mine.iter().map(|(p, offset)| {
+                    EmptyElement::at((p.cpsnr_db, p.mpix_per_s))
+                        + Circle::new((0, 0), 5, colour.filled())
+                        + Text::new(
+                            p.method.clone(),
+                            **offset,
+                            (FONT, 11).into_font().color(&colour),
+                        )
+                }))?
+                .label(*library)
+                .legend(move |(x, y)| Circle::new((x + 9, y), 5, colour.filled()));
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::LowerLeft)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK.mix(0.4))
+            .label_font((FONT, 12))
+            .draw()?;
+    }
+    root.present()?;
+    Ok(())
+}
+
+/// Chart 3: the histogram of the 8-bit difference between the paths, per method, and each
+/// path's whole-pipeline throughput.
+pub fn fixed_vs_float(r: &SuiteResults, path: &Path) -> Result<(), Error> {
+    draw_fixed_vs_float(r, path).map_err(failed(path))
+}
+
+fn draw_fixed_vs_float(r: &SuiteResults, path: &Path) -> Drawn {
+    let root = SVGBackend::new(path, (1400, 620)).into_drawing_area();
+    let body = figure(
+        &root,
+        "Fixed-point against float: the whole pipeline's 8-bit output, and its speed",
+        r,
+    )?;
+    let (left, right) = body.split_horizontally(760);
+    let f = &r.fixed_vs_float;
+    let reach = f
+        .agreement
+        .iter()
+        .map(|a| a.worst_lsb as i32)
+        .max()
+        .unwrap_or(1)
+        .max(2);
+    let floor = 1e-6;
+    let mut chart = ChartBuilder::on(&left)
+        .caption(
+            format!("fixed - float over {} images as 12-bit raw", f.images),
+            (FONT, 17),
+        )
+        .margin(12)
+        .x_label_area_size(42)
+        .y_label_area_size(70)
+        .build_cartesian_2d(
+            (-reach as f64 - 0.6)..(reach as f64 + 0.6),
+            (floor..200.0).log_scale(),
+        )?;
+    chart
+        .configure_mesh()
+        .x_desc("difference (8-bit LSB)")
+        .y_desc("share of output samples (%, log)")
+        .y_label_formatter(&|v| tick(*v))
+        .x_labels(2 * reach as usize + 1)
+        .x_label_formatter(&|x| format!("{x:.0}"))
+        .label_style((FONT, 12))
+        .draw()?;
+    let n = f.agreement.len().max(1) as f64;
+    let width = 0.8 / n;
+    for (k, a) in f.agreement.iter().enumerate() {
+        let colour = PALETTE[k % PALETTE.len()];
+        let offset = -0.4 + width * k as f64;
+        let total = a.samples.max(1) as f64;
+        chart
+            .draw_series(a.histogram.iter().map(|&(d, count)| {
+                let share = 100.0 * count as f64 / total;
+                let x = d as f64 + offset;
+                Rectangle::new([(x, floor), (x + width, share.max(floor))], colour.filled())
+            }))?
+            .label(format!(
+                "{}: {} of {} samples beyond 1 LSB, worst {}",
+                a.method,
+                a.histogram
+                    .iter()
+                    .filter(|(d, _)| d.abs() > 1)
+                    .map(|(_, n)| n)
+                    .sum::<u64>(),
+                a.samples,
+                a.worst_lsb
+            ))
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], colour.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK.mix(0.4))
+        .label_font((FONT, 12))
+        .draw()?;
+
+    let fastest = f.speed.iter().map(|s| s.mpix_per_s).fold(1.0, f64::max);
+    let rows = f.speed.len().max(1) as f64;
+    let mut chart = ChartBuilder::on(&right)
+        .caption("throughput, one thread", (FONT, 17))
+        .margin(12)
+        .x_label_area_size(42)
+        .y_label_area_size(10)
+        .build_cartesian_2d(0.0..fastest * 1.45, 0.0..rows)?;
+    chart
+        .configure_mesh()
+        .disable_y_mesh()
+        .y_labels(0)
+        .x_desc("Mpix/s")
+        .x_label_formatter(&|v| format!("{v:.0}"))
+        .label_style((FONT, 12))
+        .draw()?;
+    for (i, s) in f.speed.iter().enumerate() {
+        let colour = if s.path == "fixed" {
+            PALETTE[3]
+        } else {
+            PALETTE[0]
+        };
+        let y = rows - i as f64 - 1.0;
+        chart.draw_series([Rectangle::new(
+            [(0.0, y + 0.15), (s.mpix_per_s, y + 0.85)],
+            colour.filled(),
+        )])?;
+        chart.draw_series([Text::new(
+            format!("{} {}: {:.0}", s.path, s.method, s.mpix_per_s),
+            (s.mpix_per_s + fastest * 0.02, y + 0.62),
+            (FONT, 12),
+        )])?;
+    }
+    let (_, h) = right.dim_in_pixel();
+    right.draw(&Text::new(
+        f.speed_frame.clone(),
+        (16, h as i32 - 18),
+        (FONT, 11).into_font().color(&BLACK.mix(0.7)),
+    ))?;
+    root.present()?;
+    Ok(())
+}
+
+/// Chart 6: depth of field against subject distance, exact and approximated, and the
+/// approximation's relative error against the distance over the hyperfocal distance.
+pub fn depth_of_field(r: &SuiteResults, path: &Path) -> Result<(), Error> {
+    draw_dof(r, path).map_err(failed(path))
+}
+
+fn draw_dof(r: &SuiteResults, path: &Path) -> Drawn {
+    let root = SVGBackend::new(path, (1400, 620)).into_drawing_area();
+    let body = figure(
+        &root,
+        &format!(
+            "Depth of field: the approximation 2u²Nc/f² (dashed) against the exact limits (solid), c = {} mm",
+            r.depth_of_field.coc_mm
+        ),
+        r,
+    )?;
+    let (left, right) = body.split_horizontally(700);
+    let lenses = &r.depth_of_field.lenses;
+    let (mut lo_s, mut hi_s, mut lo_d, mut hi_d) = (f64::MAX, 0.0f64, f64::MAX, 0.0f64);
+    for l in lenses {
+        for &(s, exact, approx) in &l.curve {
+            lo_s = lo_s.min(s);
+            hi_s = hi_s.max(s);
+            for d in exact.into_iter().chain([approx]) {
+                if d.is_finite() && d > 0.0 {
+                    lo_d = lo_d.min(d);
+                    hi_d = hi_d.max(d);
+                }
+            }
+        }
+    }
+    let hi_d = hi_d.min(1e4);
+    let mut chart = ChartBuilder::on(&left)
+        .caption("total depth of field", (FONT, 17))
+        .margin(12)
+        .x_label_area_size(42)
+        .y_label_area_size(70)
+        .build_cartesian_2d((lo_s..hi_s).log_scale(), (lo_d..hi_d).log_scale())?;
+    chart
+        .configure_mesh()
+        .x_desc("subject distance (m, log)")
+        .y_desc("depth of field (m, log)")
+        .x_label_formatter(&|v| tick(*v))
+        .y_label_formatter(&|v| tick(*v))
+        .label_style((FONT, 12))
+        .draw()?;
+    for (k, l) in lenses.iter().enumerate() {
+        let colour = PALETTE[k % PALETTE.len()];
+        let exact: Vec<_> = l
+            .curve
+            .iter()
+            .filter_map(|&(s, e, _)| e.filter(|e| *e <= hi_d).map(|e| (s, e)))
+            .collect();
+        chart
+            .draw_series(LineSeries::new(exact, colour.stroke_width(2)))?
+            .label(format!(
+                "{} mm f/{}: hyperfocal {:.1} m",
+                l.focal_length_mm, l.f_number, l.hyperfocal_m
+            ))
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], colour.stroke_width(2)));
+        let approx: Vec<_> = l
+            .curve
+            .iter()
+            .filter(|p| p.2 <= hi_d)
+            .map(|&(s, _, a)| (s, a))
+            .collect();
+        chart.draw_series(DashedLineSeries::new(approx, 6, 4, colour.stroke_width(2)))?;
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK.mix(0.4))
+        .label_font((FONT, 12))
+        .draw()?;
+
+    let mut chart = ChartBuilder::on(&right)
+        .caption(
+            "the approximation's error (colours as on the left)",
+            (FONT, 17),
+        )
+        .margin(12)
+        .x_label_area_size(42)
+        .y_label_area_size(70)
+        .build_cartesian_2d((1e-4..1.0f64).log_scale(), -100.0..120.0f64)?;
+    chart
+        .configure_mesh()
+        .x_desc("subject distance / hyperfocal distance (log)")
+        .y_desc("(approximation - exact) / exact (%)")
+        .x_label_formatter(&|v| tick(*v))
+        .y_label_formatter(&|v| format!("{v:.0}"))
+        .label_style((FONT, 12))
+        .draw()?;
+    for bound in [-10.0, 10.0] {
+        chart.draw_series(DashedLineSeries::new(
+            [(1e-4, bound), (1.0, bound)],
+            4,
+            4,
+            BLACK.mix(0.5).stroke_width(1),
+        ))?;
+    }
+    chart.draw_series([Text::new(
+        "within ±10 % between the dashed lines",
+        (1.5e-4, 14.0),
+        (FONT, 12),
+    )])?;
+    for (k, l) in lenses.iter().enumerate() {
+        let colour = PALETTE[k % PALETTE.len()];
+        let error: Vec<_> = l
+            .curve
+            .iter()
+            .filter_map(|&(s, e, a)| {
+                let x = s / l.hyperfocal_m;
+                e.filter(|_| (1e-4..1.0).contains(&x))
+                    .map(|e| (x, (100.0 * (a - e) / e).clamp(-100.0, 120.0)))
+            })
+            .collect();
+        chart.draw_series(LineSeries::new(error, colour.stroke_width(2)))?;
+    }
+    root.present()?;
+    Ok(())
+}
+
+/// A tick label with as many decimals as its size needs (log axes span decades).
+fn tick(v: f64) -> String {
+    let a = v.abs();
+    if a == 0.0 || a >= 10.0 {
+        format!("{v:.0}")
+    } else if a >= 1.0 {
+        format!("{v:.1}")
+    } else {
+        let decimals = (-a.log10()).ceil() as usize + 1;
+        format!("{v:.decimals$}")
+    }
+}
+
+/// Where each point's label goes, in pixels from the point: to its right, moved down or up a
+/// line where it would overlap a label placed before it (points close in accuracy and speed,
+/// like the bilinear variants, would otherwise print over each other).
+fn label_offsets<DB: DrawingBackend>(
+    chart: &ChartContext<
+        '_,
+        DB,
+        Cartesian2d<plotters::coord::types::RangedCoordf64, LogCoord<f64>>,
+    >,
+    points: &[&DemosaicPoint],
+) -> Vec<(i32, i32)> {
+    // The naive text metrics: about 6 pixels per character at 11 points, 12 per line.
+    let mut placed: Vec<(i32, i32, i32, i32)> = Vec::new();
+    let mut offsets = Vec::new();
+    for p in points {
+        let (x, y) = chart.backend_coord(&(p.cpsnr_db, p.mpix_per_s));
+        let width = 6 * p.method.chars().count() as i32;
+        let mut chosen = (7, -5);
+        for dy in [-5, 7, -17, 19, -29, 31] {
+            let (left, top) = (x + 7, y + dy);
+            let overlaps = placed
+                .iter()
+                .any(|&(l, t, r, b)| left < r && left + width > l && top < b && top + 12 > t);
+            if !overlaps {
+                chosen = (7, dy);
+                break;
+            }
+        }
+        placed.push((x + 7, y + chosen.1, x + 7 + width, y + chosen.1 + 12));
+        offsets.push(chosen);
+    }
+    offsets
+}

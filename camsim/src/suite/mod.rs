@@ -1,0 +1,755 @@
+//! `camsim bench` without a subcommand: the benchmark suites, each figure written to one JSON
+//! file, drawn as SVG charts and summed up in Markdown, with the peers measured in the same
+//! run.
+//!
+//! | suite | chart | what |
+//! |---|---|---|
+//! | [`demosaic`](DemosaicSuite) | `demosaic_pareto.svg` | Mpix/s against CPSNR on Kodak and McMaster at 8 and 16 bits: every camsim method, OpenCV's and colour-demosaicing's |
+//! | [`fixed_vs_float`](FixedFloatSuite) | `fixed_vs_float.svg` | the whole pipeline's 8-bit output, fixed minus float, over the image sets as 12-bit raw; each path's throughput |
+//! | [`depth_of_field`](DofSuite) | `depth_of_field.svg` | the approximation 2u^2Nc/f^2 against the exact near/far limits over subject distance |
+//!
+//! Everything runs on one thread. The peers run through the oracle environment's Python (the
+//! one `scripts/test-all.sh` makes); without it the suites run alone and the results say the
+//! peers were skipped and why. `quick` measures a few images on small tiles, for smoke runs.
+//!
+//! This is library code: progress goes through a callback, and nothing prints.
+
+mod charts;
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use isp_core::demosaic::Method;
+use isp_core::frame::{RawFrame, RgbViewMut};
+use isp_core::pipeline::{FixedPipeline, FloatPipeline, IspConfig};
+use isp_core::CfaPattern;
+use raw_formats::RawImage;
+use serde::{Deserialize, Serialize};
+
+use crate::demosaic::{self, BenchLimits, Demosaic};
+use crate::develop::{with_prepared, RawInput, Runner};
+use crate::error::Error;
+use crate::isp_options::{IspOptions, WhiteBalance};
+
+/// What `camsim bench` runs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SuiteSettings {
+    /// Folder the results go into (created if missing).
+    pub out: PathBuf,
+    /// A few images, small tiles, short timings: a smoke run of about a minute.
+    pub quick: bool,
+    /// The folder holding `kodak/` and `mcmaster/` (8-bit RGB PNG images).
+    pub data: PathBuf,
+    /// The oracle environment's Python, which runs the peers.
+    pub python: PathBuf,
+    /// Fail, rather than skip the peers, when that Python cannot run them (CI).
+    pub require_peers: bool,
+    /// The command line, for the captions.
+    pub command: String,
+}
+
+/// Where the run is, for progress reports.
+pub type ProgressFn<'a> = &'a mut dyn FnMut(&str);
+
+/// The machine a run was measured on.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Machine {
+    /// CPU model, from `/proc/cpuinfo` where there is one.
+    pub cpu: String,
+    /// Logical cores.
+    pub cores: usize,
+    /// Operating system and architecture.
+    pub os: String,
+}
+
+impl Machine {
+    /// This machine.
+    pub fn this() -> Self {
+        let cpu = std::fs::read_to_string("/proc/cpuinfo")
+            .ok()
+            .and_then(|text| {
+                text.lines()
+                    .find(|l| l.starts_with("model name"))
+                    .and_then(|l| l.split(':').nth(1))
+                    .map(|m| m.split_whitespace().collect::<Vec<_>>().join(" "))
+            })
+            .unwrap_or_else(|| "unknown CPU".into());
+        Self {
+            cpu,
+            cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            os: format!("{} {}", std::env::consts::OS, std::env::consts::ARCH),
+        }
+    }
+
+    /// One line for captions.
+    pub fn describe(&self) -> String {
+        format!("{}, {} cores, {}", self.cpu, self.cores, self.os)
+    }
+}
+
+/// Every figure of a run (`bench.json`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SuiteResults {
+    /// The date of the run, UTC, `YYYY-MM-DD`.
+    pub date: String,
+    /// The machine.
+    pub machine: Machine,
+    /// The command that made it.
+    pub command: String,
+    /// Whether this was a `--quick` smoke run (its speeds are from small tiles).
+    pub quick: bool,
+    /// Chart 1.
+    pub demosaic: DemosaicSuite,
+    /// Chart 3.
+    pub fixed_vs_float: FixedFloatSuite,
+    /// Chart 6.
+    pub depth_of_field: DofSuite,
+    /// Why the peers did not run, if they did not.
+    pub peers_skipped: Option<String>,
+    /// Seconds the whole run took.
+    pub seconds: f64,
+}
+
+/// One demosaicing method on one image set at one depth.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DemosaicPoint {
+    /// `kodak` or `mcmaster`.
+    pub dataset: String,
+    /// `camsim`, `OpenCV` or `colour-demosaicing`.
+    pub library: String,
+    /// The method's name in its library.
+    pub method: String,
+    /// Sample depth, 8 or 16.
+    pub bits: u8,
+    /// Mean CPSNR over the images, dB.
+    pub cpsnr_db: f64,
+    /// Single-thread throughput on the tile, Mpix/s.
+    pub mpix_per_s: f64,
+    /// Images the CPSNR is averaged over.
+    pub images: usize,
+}
+
+/// Chart 1's figures.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DemosaicSuite {
+    /// Every method, set and depth.
+    pub points: Vec<DemosaicPoint>,
+    /// Side of the square mosaic whose demosaic is timed.
+    pub tile: usize,
+    /// The peers' library versions.
+    pub peer_versions: Option<serde_json::Value>,
+}
+
+/// One demosaicing method's fixed-against-float comparison.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PathAgreement {
+    /// The pipeline's demosaicing method.
+    pub method: String,
+    /// `(fixed - float, samples)` for every difference that occurred, 8-bit output.
+    pub histogram: Vec<(i32, u64)>,
+    /// Output samples compared.
+    pub samples: u64,
+    /// The share of samples within 1 LSB.
+    pub within_one_lsb: f64,
+    /// The largest difference, LSB.
+    pub worst_lsb: u32,
+}
+
+/// One path's whole-pipeline speed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PathSpeed {
+    /// `float` or `fixed`.
+    pub path: String,
+    /// The demosaicing method.
+    pub method: String,
+    /// Best time per frame, ms.
+    pub ms_per_frame: f64,
+    /// Megapixels per second.
+    pub mpix_per_s: f64,
+}
+
+/// Chart 3's figures.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FixedFloatSuite {
+    /// The stages both paths ran.
+    pub stages: String,
+    /// Images compared (Kodak and McMaster as 12-bit RGGB raw).
+    pub images: usize,
+    /// Per method.
+    pub agreement: Vec<PathAgreement>,
+    /// The frame the speeds were measured on.
+    pub speed_frame: String,
+    /// Per path and method.
+    pub speed: Vec<PathSpeed>,
+}
+
+/// One lens of chart 6.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DofLens {
+    /// Focal length, mm.
+    pub focal_length_mm: f64,
+    /// f-number.
+    pub f_number: f64,
+    /// Hyperfocal distance, m.
+    pub hyperfocal_m: f64,
+    /// `(subject distance, exact depth of field, approximation)` in metres; the exact value
+    /// is `None` (infinite) at and beyond the hyperfocal distance.
+    pub curve: Vec<(f64, Option<f64>, f64)>,
+    /// The subject distances (m) between which the approximation is within 10 % of the exact
+    /// value: close up it ignores magnification, towards the hyperfocal distance the far
+    /// limit's runaway.
+    pub within_ten_percent_m: Option<(f64, f64)>,
+}
+
+/// Chart 6's figures.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DofSuite {
+    /// Circle of confusion, mm (full frame).
+    pub coc_mm: f64,
+    /// The lenses.
+    pub lenses: Vec<DofLens>,
+}
+
+/// The files a run writes, in its folder.
+pub const FILES: [&str; 5] = [
+    "bench.json",
+    "summary.md",
+    "demosaic_pareto.svg",
+    "fixed_vs_float.svg",
+    "depth_of_field.svg",
+];
+
+/// Runs every suite, writes [`FILES`] into `settings.out` and returns the results.
+pub fn run(settings: &SuiteSettings, progress: ProgressFn<'_>) -> Result<SuiteResults, Error> {
+    let started = Instant::now();
+    std::fs::create_dir_all(&settings.out)
+        .map_err(|e| raw_formats::FormatError::io(&settings.out, e))?;
+    let mut peers_skipped = None;
+    let demosaic = demosaic_suite(settings, &mut peers_skipped, progress)?;
+    let fixed_vs_float = fixed_float_suite(settings, progress)?;
+    progress("depth of field");
+    let depth_of_field = dof_suite()?;
+    let results = SuiteResults {
+        date: today_utc(),
+        machine: Machine::this(),
+        command: settings.command.clone(),
+        quick: settings.quick,
+        demosaic,
+        fixed_vs_float,
+        depth_of_field,
+        peers_skipped,
+        seconds: started.elapsed().as_secs_f64(),
+    };
+    write_all(&results, &settings.out, progress)?;
+    Ok(results)
+}
+
+/// Writes the JSON, the charts and the summary of `results` into `out` (also used to redraw
+/// the charts from a saved `bench.json`).
+pub fn write_all(
+    results: &SuiteResults,
+    out: &Path,
+    progress: ProgressFn<'_>,
+) -> Result<(), Error> {
+    let write = |name: &str, text: &str| {
+        let path = out.join(name);
+        std::fs::write(&path, text)
+            .map_err(|e| Error::Format(raw_formats::FormatError::io(path, e)))
+    };
+    let json = serde_json::to_string_pretty(results).map_err(|e| Error::Message(e.to_string()))?;
+    write("bench.json", &(json + "\n"))?;
+    progress("charts");
+    charts::demosaic_pareto(results, &out.join("demosaic_pareto.svg"))?;
+    charts::fixed_vs_float(results, &out.join("fixed_vs_float.svg"))?;
+    charts::depth_of_field(results, &out.join("depth_of_field.svg"))?;
+    write("summary.md", &summary(results))
+}
+
+fn demosaic_suite(
+    settings: &SuiteSettings,
+    peers_skipped: &mut Option<String>,
+    progress: ProgressFn<'_>,
+) -> Result<DemosaicSuite, Error> {
+    let limits = if settings.quick {
+        BenchLimits {
+            images: Some(2),
+            tile: 512,
+            min_seconds: 0.05,
+        }
+    } else {
+        BenchLimits::default()
+    };
+    let mut points = Vec::new();
+    for set in ["kodak", "mcmaster"] {
+        for bits in [8, 16] {
+            let rows = demosaic::bench_limited(
+                &settings.data.join(set),
+                bits,
+                &Demosaic::ALL,
+                limits,
+                &mut |what| progress(&format!("demosaic: {set} {what}")),
+            )?;
+            let images = count_images(&settings.data.join(set), limits.images)?;
+            points.extend(rows.into_iter().map(|r| DemosaicPoint {
+                dataset: set.into(),
+                library: "camsim".into(),
+                method: r.method.into(),
+                bits,
+                cpsnr_db: r.cpsnr_db,
+                mpix_per_s: r.mpix_per_s,
+                images,
+            }));
+        }
+    }
+    progress("demosaic: peers (OpenCV, colour-demosaicing)");
+    let request = serde_json::json!({
+        "datasets": [settings.data.join("kodak"), settings.data.join("mcmaster")],
+        "images": limits.images,
+        "tile": limits.tile,
+        "min_seconds": limits.min_seconds,
+        "depths": [8, 16],
+    });
+    let mut peer_versions = None;
+    match run_python(settings, include_str!("demosaic_peers.py"), &request) {
+        Ok(reply) => {
+            #[derive(Deserialize)]
+            struct Reply {
+                rows: Vec<DemosaicPoint>,
+                versions: serde_json::Value,
+            }
+            let reply: Reply = serde_json::from_value(reply)
+                .map_err(|e| Error::Message(format!("the demosaic peers' reply: {e}")))?;
+            points.extend(reply.rows);
+            peer_versions = Some(reply.versions);
+        }
+        Err(why) if !settings.require_peers => *peers_skipped = Some(why),
+        Err(why) => return Err(Error::Message(format!("the peers did not run: {why}"))),
+    }
+    Ok(DemosaicSuite {
+        points,
+        tile: limits.tile,
+        peer_versions,
+    })
+}
+
+fn count_images(folder: &Path, limit: Option<usize>) -> Result<usize, Error> {
+    let n = std::fs::read_dir(folder)
+        .map_err(|e| raw_formats::FormatError::io(folder, e))?
+        .filter_map(|e| e.ok())
+        .filter(|e| {
+            e.path()
+                .extension()
+                .is_some_and(|x| x.eq_ignore_ascii_case("png"))
+        })
+        .count();
+    Ok(limit.map_or(n, |l| n.min(l.max(1))))
+}
+
+/// Runs `script` with the oracle Python and one JSON argument; its stdout parsed as JSON, or
+/// why it could not run.
+fn run_python(
+    settings: &SuiteSettings,
+    script: &str,
+    request: &serde_json::Value,
+) -> Result<serde_json::Value, String> {
+    let python = &settings.python;
+    if !python.exists() {
+        return Err(format!(
+            "no oracle Python at {} (scripts/test-all.sh creates .venv; or set CAMSIM_ORACLE_PYTHON)",
+            python.display()
+        ));
+    }
+    let output = std::process::Command::new(python)
+        .arg("-c")
+        .arg(script)
+        .arg(request.to_string())
+        .stderr(std::process::Stdio::inherit())
+        .output()
+        .map_err(|e| format!("running {}: {e}", python.display()))?;
+    if !output.status.success() {
+        return Err(format!(
+            "the peer script failed ({}); its error is above",
+            output.status
+        ));
+    }
+    serde_json::from_slice(&output.stdout).map_err(|e| format!("the peer script's reply: {e}"))
+}
+
+/// The 12-bit raw the fixed-against-float comparison runs on: black 64, 255 maps to 3889.
+const RAW_BLACK: u16 = 64;
+const RAW_WHITE: u16 = 4095;
+/// A camera-like colour matrix for the comparison (rows sum to one).
+const CCM: [[f32; 3]; 3] = [[1.6, -0.4, -0.2], [-0.3, 1.5, -0.2], [0.0, -0.5, 1.5]];
+/// The pipeline methods charted.
+const PIPELINE_METHODS: [Method; 3] = [Method::Bilinear, Method::Mhc, Method::Directional];
+
+fn fixed_float_suite(
+    settings: &SuiteSettings,
+    progress: ProgressFn<'_>,
+) -> Result<FixedFloatSuite, Error> {
+    let per_set = if settings.quick { Some(2) } else { None };
+    let mut images = Vec::new();
+    for set in ["kodak", "mcmaster"] {
+        let folder = settings.data.join(set);
+        let mut paths: Vec<_> = std::fs::read_dir(&folder)
+            .map_err(|e| raw_formats::FormatError::io(&folder, e))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")))
+            .collect();
+        paths.sort();
+        paths.truncate(per_set.unwrap_or(usize::MAX));
+        for path in paths {
+            images.push(raw_formats::image::read(&path)?);
+        }
+    }
+    let mut agreement = Vec::new();
+    for method in PIPELINE_METHODS {
+        let mut counts = std::collections::BTreeMap::<i32, u64>::new();
+        for (i, rgb) in images.iter().enumerate() {
+            progress(&format!(
+                "fixed against float: {} {}/{}",
+                method.name(),
+                i + 1,
+                images.len()
+            ));
+            let (w, h) = (rgb.width, rgb.height);
+            let data: Vec<u16> = demosaic::mosaic_from_rgb(rgb, CfaPattern::Rggb, 15)
+                .into_iter()
+                .map(|v| v + RAW_BLACK)
+                .collect();
+            let raw = RawFrame::new(
+                &data,
+                w,
+                h,
+                w,
+                12,
+                CfaPattern::Rggb,
+                [RAW_BLACK; 4],
+                RAW_WHITE,
+            )?;
+            let config = comparison_config(method);
+            let len = config.scratch_len(w, h).ok_or(Error::Message(
+                "the frame's scratch does not fit memory".into(),
+            ))?;
+            let (mut float, mut fixed) = (vec![0u8; w * h * 3], vec![0u8; w * h * 3]);
+            FloatPipeline::new(&config)?.run(
+                &raw,
+                0..h,
+                &mut vec![0.0; len],
+                &mut RgbViewMut::new(&mut float, w, h, 3 * w)?,
+            )?;
+            FixedPipeline::new(&config, 8)?.run(
+                &raw,
+                0..h,
+                &mut vec![0; len],
+                &mut RgbViewMut::new(&mut fixed, w, h, 3 * w)?,
+            )?;
+            for (a, b) in fixed.iter().zip(&float) {
+                *counts.entry(i32::from(*a) - i32::from(*b)).or_default() += 1;
+            }
+        }
+        let samples: u64 = counts.values().sum();
+        let within: u64 = counts
+            .iter()
+            .filter(|(d, _)| d.abs() <= 1)
+            .map(|(_, n)| n)
+            .sum();
+        agreement.push(PathAgreement {
+            method: method.name().into(),
+            worst_lsb: counts.keys().map(|d| d.unsigned_abs()).max().unwrap_or(0),
+            histogram: counts.into_iter().collect(),
+            samples,
+            within_one_lsb: within as f64 / samples.max(1) as f64,
+        });
+    }
+    let (frame, frame_name) = synthetic_raw()?;
+    let repeats = if settings.quick { 2 } else { 10 };
+    let mut speed = Vec::new();
+    for fixed in [false, true] {
+        for method in PIPELINE_METHODS {
+            let path = if fixed { "fixed" } else { "float" };
+            progress(&format!("pipeline speed: {path} {}", method.name()));
+            let options = IspOptions {
+                fixed: Some(fixed),
+                demosaic: Some(method),
+                dpc_threshold: Some(64),
+                white_balance: Some(WhiteBalance::Gains([1.9, 1.0, 1.6])),
+                ccm: Some(CCM),
+                out_bits: Some(8),
+                ..IspOptions::default()
+            };
+            let ms = with_prepared(&frame, &options, None, |p| {
+                let (w, h) = (p.input.width(), p.input.height());
+                let mut runner = Runner::new(&p.input, &p.config, p.fixed, 8, 1)?;
+                Ok(runner.best_ms(&mut vec![0u8; w * h * 3], repeats)?)
+            })?;
+            let (w, h) = (frame.raw.width, frame.raw.height);
+            speed.push(PathSpeed {
+                path: path.into(),
+                method: method.name().into(),
+                ms_per_frame: ms,
+                mpix_per_s: (w * h) as f64 / (ms * 1e3),
+            });
+        }
+    }
+    Ok(FixedFloatSuite {
+        stages: "defective pixels (dynamic), black level, white balance, demosaic, highlights \
+                 (knee 0.9), colour matrix, sRGB encoding"
+            .into(),
+        images: images.len(),
+        agreement,
+        speed_frame: format!("{frame_name}, one thread, best of {repeats}"),
+        speed,
+    })
+}
+
+/// The comparison's pipeline: the stages a camera runs, with `method`.
+fn comparison_config(method: Method) -> IspConfig<'static> {
+    IspConfig {
+        demosaic: method,
+        wb_gains: [1.4, 1.0, 1.2],
+        highlight_knee: crate::develop::DEFAULT_HIGHLIGHT_KNEE,
+        ccm: CCM,
+        dpc: isp_core::dpc::DpcConfig {
+            static_defects: &[],
+            dynamic_threshold: Some(600),
+        },
+        ..IspConfig::default()
+    }
+}
+
+/// The frame `camsim bench isp` and the pipeline speeds use: 2592 x 1968, 10 bits, RGGB,
+/// black 64: gentle ramps per CFA colour with a little noise, as a scene has (not flat, not
+/// pure noise); and its description.
+pub fn synthetic_raw() -> Result<(RawInput, &'static str), Error> {
+    let (w, h) = (2592usize, 1968usize);
+    let mut state = 0x2545_f491u32;
+    let samples = (0..w * h)
+        .map(|i| {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            let (x, y) = (i % w, i / w);
+            let colour = (y & 1) + (x & 1);
+            let ramp = 64 + 150 * colour + x * 500 / w + y * 150 / h;
+            (ramp + (state % 24) as usize).min(1023) as u16
+        })
+        .collect();
+    let raw = RawImage::new(w, h, CfaPattern::Rggb, 10, [64; 4], 1023, samples)?;
+    let mut input = RawInput::plain(raw);
+    input.defaults.black_level = Some(vec![64]);
+    input.defaults.white_level = Some(1023);
+    Ok((input, "synthesised 2592x1968 10-bit RGGB"))
+}
+
+/// Full-frame circle of confusion, mm.
+const COC_MM: f64 = 0.03;
+/// Chart 6's lenses: focal length (mm) and f-number.
+const LENSES: [(f64, f64); 4] = [(24.0, 8.0), (50.0, 2.0), (85.0, 1.8), (200.0, 4.0)];
+
+fn dof_suite() -> Result<DofSuite, Error> {
+    use optics_core::dof::{depth_of_field, depth_of_field_approx, hyperfocal_distance};
+    let optics = |source| Error::Optics {
+        option: "depth of field",
+        source,
+    };
+    let mut lenses = Vec::new();
+    for (f, n) in LENSES {
+        let hyperfocal_mm = hyperfocal_distance(f, n, COC_MM)
+            .map_err(optics)?
+            .finite()
+            .unwrap_or(f64::INFINITY);
+        // Subject distances from 2 f (1:1 macro) to 1 km, evenly on a log axis.
+        let (near, far) = ((2.0 * f).ln(), 1e6f64.ln());
+        let steps = 240;
+        let mut curve = Vec::new();
+        let mut within_ten_percent_m: Option<(f64, f64)> = None;
+        for k in 0..=steps {
+            let s = (near + (far - near) * k as f64 / steps as f64).exp();
+            let exact = depth_of_field(f, n, COC_MM, s)
+                .map_err(optics)?
+                .total
+                .finite();
+            let approx = depth_of_field_approx(f, n, COC_MM, s)
+                .map_err(optics)?
+                .finite()
+                .unwrap_or(f64::INFINITY);
+            if exact.is_some_and(|e| (approx - e).abs() <= 0.1 * e) {
+                let first = within_ten_percent_m.map_or(s / 1e3, |w| w.0);
+                within_ten_percent_m = Some((first, s / 1e3));
+            }
+            curve.push((s / 1e3, exact.map(|e| e / 1e3), approx / 1e3));
+        }
+        lenses.push(DofLens {
+            focal_length_mm: f,
+            f_number: n,
+            hyperfocal_m: hyperfocal_mm / 1e3,
+            curve,
+            within_ten_percent_m,
+        });
+    }
+    Ok(DofSuite {
+        coc_mm: COC_MM,
+        lenses,
+    })
+}
+
+/// Today's date in UTC, `YYYY-MM-DD` (the civil date of the Unix day count; Howard Hinnant's
+/// `civil_from_days`).
+pub fn today_utc() -> String {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    civil_date(secs / 86_400)
+}
+
+fn civil_date(days_since_epoch: u64) -> String {
+    let z = days_since_epoch as i64 + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = doy - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = yoe + era * 400 + i64::from(month <= 2);
+    format!("{year:04}-{month:02}-{day:02}")
+}
+
+/// The caption every chart carries.
+fn caption(r: &SuiteResults) -> String {
+    format!(
+        "{}{} on {}, {}",
+        r.command,
+        if r.quick {
+            " (quick: few images, small tiles)"
+        } else {
+            ""
+        },
+        r.machine.describe(),
+        r.date
+    )
+}
+
+/// `summary.md`: the charts and every figure in tables.
+pub fn summary(r: &SuiteResults) -> String {
+    let mut md = format!(
+        "# camsim bench\n\n`{}` on {}, {}, in {:.0} s{}. Every figure is in `bench.json`; \
+         single thread throughout.\n\n",
+        r.command,
+        r.machine.describe(),
+        r.date,
+        r.seconds,
+        if r.quick {
+            " (a `--quick` smoke run: two images per set, 512-pixel tiles; its speeds are not \
+             comparable)"
+        } else {
+            ""
+        }
+    );
+    if let Some(why) = &r.peers_skipped {
+        md += &format!("**The peers were skipped:** {why}.\n\n");
+    }
+    md += "## Demosaicing: speed against accuracy\n\n![Demosaic Pareto front](demosaic_pareto.svg)\n\n";
+    md += &format!(
+        "Mpix/s on a {0} x {0} mosaic tiled from the set's first image; CPSNR over the image less a \
+         10-pixel border, averaged over the set.",
+        r.demosaic.tile
+    );
+    if let Some(v) = &r.demosaic.peer_versions {
+        md += &format!(" Peers: {v}.");
+    }
+    md += "\n\n| set | bits | library | method | CPSNR dB | Mpix/s |\n|---|---|---|---|---|---|\n";
+    let mut points = r.demosaic.points.clone();
+    points.sort_by(|a, b| {
+        (&a.dataset, a.bits)
+            .cmp(&(&b.dataset, b.bits))
+            .then(b.cpsnr_db.total_cmp(&a.cpsnr_db))
+    });
+    for p in &points {
+        md += &format!(
+            "| {} | {} | {} | {} | {:.2} | {:.1} |\n",
+            p.dataset, p.bits, p.library, p.method, p.cpsnr_db, p.mpix_per_s
+        );
+    }
+    let f = &r.fixed_vs_float;
+    md += &format!(
+        "\n## Fixed-point against float\n\n![Fixed against float](fixed_vs_float.svg)\n\n\
+         The whole pipeline ({}) on {} images (Kodak and McMaster as 12-bit RGGB raw), 8-bit \
+         output.\n\n| method | samples | within 1 LSB | beyond 1 LSB | worst |\n|---|---|---|---|---|\n",
+        f.stages, f.images
+    );
+    for a in &f.agreement {
+        let beyond: u64 = a
+            .histogram
+            .iter()
+            .filter(|(d, _)| d.abs() > 1)
+            .map(|(_, n)| n)
+            .sum();
+        md += &format!(
+            "| {} | {} | {:.4} % | {} | {} LSB |\n",
+            a.method,
+            a.samples,
+            100.0 * a.within_one_lsb,
+            beyond,
+            a.worst_lsb
+        );
+    }
+    md += &format!(
+        "\nThroughput on the {}:\n\n| path | method | ms per frame | Mpix/s |\n|---|---|---|---|\n",
+        f.speed_frame
+    );
+    for s in &f.speed {
+        md += &format!(
+            "| {} | {} | {:.1} | {:.1} |\n",
+            s.path, s.method, s.ms_per_frame, s.mpix_per_s
+        );
+    }
+    md += &format!(
+        "\n## Depth of field: where 2u²Nc/f² breaks down\n\n![Depth of field](depth_of_field.svg)\n\n\
+         Circle of confusion {} mm.\n\n| lens | hyperfocal | approximation within 10 % from | to |\n|---|---|---|---|\n",
+        r.depth_of_field.coc_mm
+    );
+    for l in &r.depth_of_field.lenses {
+        md += &format!(
+            "| {} mm f/{} | {:.2} m | {} |\n",
+            l.focal_length_mm,
+            l.f_number,
+            l.hyperfocal_m,
+            l.within_ten_percent_m
+                .map_or("nowhere | ".into(), |(a, b)| format!("{a:.2} m | {b:.2} m"))
+        );
+    }
+    md
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn civil_dates() {
+        assert_eq!(civil_date(0), "1970-01-01");
+        assert_eq!(civil_date(11_016), "2000-02-29");
+        assert_eq!(civil_date(20_780), "2026-11-23");
+    }
+
+    #[test]
+    fn the_depth_of_field_suite_finds_where_the_approximation_breaks() {
+        let suite = dof_suite().unwrap();
+        for lens in &suite.lenses {
+            let (from, to) = lens.within_ten_percent_m.unwrap();
+            let f_m = lens.focal_length_mm / 1e3;
+            // Close up the approximation ignores magnification (at 2f it is twice the exact
+            // value); it ignores the far limit's runaway, so it fails before the hyperfocal
+            // distance, where the exact depth becomes infinite.
+            assert!(
+                from > 4.0 * f_m && to < lens.hyperfocal_m && from < to,
+                "{lens:?}"
+            );
+            assert!(lens.curve.iter().any(|p| p.1.is_none()));
+            let first = lens.curve[0];
+            assert!(first.2 > 1.5 * first.1.unwrap(), "{first:?}");
+        }
+    }
+}

@@ -1,0 +1,152 @@
+//! `camsim bench --quick`: the smoke run CI makes. It checks that every output exists and
+//! parses and that each chart has its axes, legend and caption, not the speeds.
+
+mod common;
+
+use camsim::suite::{SuiteResults, FILES};
+use common::{camsim, temp_dir};
+
+#[test]
+fn quick_bench_writes_the_json_the_charts_and_the_summary() {
+    let out = temp_dir("bench-quick");
+    let out_arg = out.display().to_string();
+    // Integration tests run in the package's folder; the image sets are the workspace's.
+    let (ok, stdout, stderr) =
+        camsim(&["bench", "--quick", "--out", &out_arg, "--data", "../data"]);
+    assert!(ok, "camsim bench --quick failed: {stderr}");
+    for name in FILES {
+        assert!(stdout.contains(name), "{name} not listed: {stdout}");
+    }
+
+    let json = std::fs::read_to_string(out.join("bench.json")).unwrap();
+    let results: SuiteResults = serde_json::from_str(&json).unwrap();
+    assert!(results.quick);
+    assert_eq!(results.date.len(), 10);
+    let required = std::env::var_os("CAMSIM_REQUIRE_ORACLE").is_some();
+    match &results.peers_skipped {
+        Some(why) if required => panic!("the peers are required here but were skipped: {why}"),
+        Some(why) => eprintln!("NOTE: the peers were skipped ({why}); CI requires them"),
+        None => {}
+    }
+    // Every camsim method, set and depth; with the peers, theirs too.
+    let libraries: &[&str] = if results.peers_skipped.is_none() {
+        &["camsim", "OpenCV", "colour-demosaicing"]
+    } else {
+        &["camsim"]
+    };
+    for set in ["kodak", "mcmaster"] {
+        for bits in [8, 16] {
+            for library in libraries {
+                let points: Vec<_> = results
+                    .demosaic
+                    .points
+                    .iter()
+                    .filter(|p| p.dataset == set && p.bits == bits && p.library == *library)
+                    .collect();
+                assert!(points.len() >= 2, "{set} {bits} {library}: {points:?}");
+                for p in points {
+                    assert!(p.cpsnr_db > 20.0 && p.cpsnr_db < 60.0, "{p:?}");
+                    assert!(p.mpix_per_s > 0.0 && p.images == 2, "{p:?}");
+                }
+            }
+        }
+    }
+    let camsim_methods = results
+        .demosaic
+        .points
+        .iter()
+        .filter(|p| p.library == "camsim" && p.dataset == "kodak" && p.bits == 8)
+        .count();
+    assert_eq!(camsim_methods, camsim::demosaic::Demosaic::ALL.len());
+
+    let f = &results.fixed_vs_float;
+    assert_eq!(f.images, 4);
+    assert_eq!(f.agreement.len(), 3);
+    for a in &f.agreement {
+        let counted: u64 = a.histogram.iter().map(|(_, n)| n).sum();
+        assert_eq!(counted, a.samples);
+        assert!(a.samples > 0 && a.within_one_lsb > 0.99, "{a:?}");
+    }
+    assert_eq!(f.speed.len(), 6);
+    assert!(f.speed.iter().all(|s| s.mpix_per_s > 0.0));
+
+    assert_eq!(results.depth_of_field.lenses.len(), 4);
+    for lens in &results.depth_of_field.lenses {
+        assert!(lens.curve.len() > 100 && lens.within_ten_percent_m.is_some());
+    }
+
+    for (svg, labels) in [
+        (
+            "demosaic_pareto.svg",
+            &[
+                "CPSNR (dB)",
+                "throughput (Mpix/s, log)",
+                "Pareto front",
+                "camsim",
+            ][..],
+        ),
+        (
+            "fixed_vs_float.svg",
+            &[
+                "difference (8-bit LSB)",
+                "share of output samples",
+                "Mpix/s",
+                "mhc",
+            ][..],
+        ),
+        (
+            "depth_of_field.svg",
+            &[
+                "subject distance (m, log)",
+                "depth of field (m, log)",
+                "hyperfocal",
+            ][..],
+        ),
+    ] {
+        let text = std::fs::read_to_string(out.join(svg)).unwrap();
+        assert!(text.trim_start().starts_with("<svg") && text.trim_end().ends_with("</svg>"));
+        for label in labels.iter().chain([&results.date.as_str(), &"2 cores"]) {
+            assert!(text.contains(label), "{svg} has no {label:?}");
+        }
+        if results.peers_skipped.is_none() && svg == "demosaic_pareto.svg" {
+            assert!(text.contains("OpenCV") && text.contains("Menon2007"));
+        }
+    }
+    let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    for name in FILES.iter().filter(|n| n.ends_with(".svg")) {
+        assert!(
+            summary.contains(&format!("]({name})")),
+            "summary.md lacks {name}"
+        );
+    }
+    assert!(summary.contains("| kodak | 16 | camsim | directional |"));
+
+    // The charts drawn again from the JSON alone are the same drawings.
+    let again = temp_dir("bench-redraw");
+    let json_arg = out.join("bench.json").display().to_string();
+    let again_arg = again.display().to_string();
+    let (ok, _, stderr) = camsim(&["bench", "--from-json", &json_arg, "--out", &again_arg]);
+    assert!(ok, "{stderr}");
+    // (bench.json parses back to the same numbers: serde_json's float_roundtrip.)
+    for name in FILES {
+        let first = std::fs::read_to_string(out.join(name)).unwrap();
+        let redrawn = std::fs::read_to_string(again.join(name)).unwrap();
+        assert!(first == redrawn, "{name} differs when redrawn");
+    }
+    let _ = std::fs::remove_dir_all(out);
+    let _ = std::fs::remove_dir_all(again);
+}
+
+#[test]
+fn bench_refuses_suite_flags_with_a_subcommand_and_a_bad_json() {
+    let (ok, _, stderr) = camsim(&["bench", "--quick", "isp"]);
+    assert!(!ok && stderr.contains("cannot be used"), "{stderr}");
+    let dir = temp_dir("bench-bad-json");
+    let bad = dir.join("bench.json");
+    std::fs::write(&bad, "{\"date\": 3}").unwrap();
+    let bad_arg = bad.display().to_string();
+    let out_arg = dir.join("out").display().to_string();
+    let (ok, _, stderr) = camsim(&["bench", "--from-json", &bad_arg, "--out", &out_arg]);
+    assert!(!ok && stderr.contains("bench.json"), "{stderr}");
+    let _ = std::fs::remove_dir_all(dir);
+}
