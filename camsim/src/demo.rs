@@ -74,8 +74,10 @@ pub struct DemoSettings {
     pub camera: String,
     /// Sensor preset.
     pub sensor: SensorPreset,
-    /// The scene's illuminant (for the truth's scale and the AWB error): A, D50, D65, FL2, ...
-    pub illuminant: String,
+    /// The illuminant the scene is lit by (A, D50, D65, FL2, FL11, LED-B3): the lights of the
+    /// scene illuminant take its spectrum ([`SceneDesc::relight`]); `None`: the scene's own
+    /// (D65 for an RGB scene, whose lights are linear sRGB).
+    pub illuminant: Option<String>,
     /// Calibration file from `camsim calibrate`; `None`: calibrate under A and D65 now.
     pub calibration: Option<PathBuf>,
     /// Image width; `None`: the scene's.
@@ -109,7 +111,7 @@ impl Default for DemoSettings {
             output: "camsim-demo".into(),
             camera: "nikon-5100".into(),
             sensor: SensorPreset::Realistic,
-            illuminant: "D65".into(),
+            illuminant: None,
             calibration: None,
             width: None,
             height: None,
@@ -184,6 +186,8 @@ pub struct DemoReport {
     pub delta_e_2000_mean: Option<f64>,
     /// Largest patch error.
     pub delta_e_2000_max: Option<f64>,
+    /// The illuminant the scene was lit by.
+    pub illuminant: String,
     /// Angle between the AWB's neutral and the true illuminant's, camera RGB, degrees.
     pub awb_angular_error_deg: f64,
     /// The AWB's correlated colour temperature, kelvin.
@@ -342,8 +346,28 @@ pub fn run(
         .map_err(|e| raw_formats::FormatError::io(&args.output, e))?;
     let out = |name: &str| args.output.join(name);
 
-    // 1. Render.
-    let scene = scene_file::load(&args.scene)?;
+    // 1. Render, under the illuminant asked for.
+    let mut scene = scene_file::load(&args.scene)?;
+    let illuminant = match (&args.illuminant, &scene.illuminant) {
+        (None, own) => own.clone().unwrap_or_else(|| "D65".into()),
+        (Some(asked), Some(_)) if scene.is_spectral() => {
+            scene.relight(asked)?;
+            asked.clone()
+        }
+        (Some(asked), _) if asked == "D65" => asked.clone(),
+        (Some(asked), _) => {
+            return Err(Error::Option {
+                option: "--illuminant",
+                value: asked.clone(),
+                allowed: format!(
+                    "D65 for scene {} (no light of it is a named illuminant; an RGB scene's \
+                     lights are linear sRGB)",
+                    scene.name
+                ),
+            })
+        }
+    };
+    let illuminant = illuminant.as_str();
     let mut settings = RenderSettings::for_scene(&scene);
     settings.width = args.width.unwrap_or(settings.width);
     settings.height = args.height.unwrap_or(settings.height);
@@ -400,7 +424,7 @@ pub fn run(
     let mut awb = wb::estimate(&raw_frame, awb_method, &to_xyz)?;
     awb.cct_k = calibration.cct_of_neutral(awb.neutral)?;
     let (_, true_neutral) = if spectral {
-        calibrate::illuminant_colour(&args.illuminant, &response)?
+        calibrate::illuminant_colour(illuminant, &response)?
     } else {
         ([0.0; 3], [1.0; 3])
     };
@@ -432,13 +456,37 @@ pub fn run(
     // The truth's scale: a neutral under the scene illuminant with camera green g (in ISP
     // units) comes out of a perfect ISP with luminance g.
     let green_per_luminance = if spectral {
-        let bands = illuminant_bands(&args.illuminant)?;
+        let bands = illuminant_bands(illuminant)?;
         response.of_bands(&bands)[1] as f64 / bands_xyz(&bands)[1]
     } else {
         1.0
     };
     let scale = (capture.units_per_radiance * green_per_luminance) as f32;
-    let truth_linear: Vec<f32> = image.rgb.iter().map(|v| v * scale).collect();
+    // Under another light than D65 the truth is the scene as a white-balanced camera shows
+    // it: its colours adapted (Bradford) from the illuminant's white to sRGB's D65 white,
+    // which is what the ISP's white balance and colour matrix aim at.
+    let adapt = if spectral && illuminant != "D65" {
+        let white = bands_xyz(&illuminant_bands(illuminant)?);
+        let white = white.map(|v| v / white[1]);
+        let to_d65 = colour::bradford_adaptation(white, colour::xy_to_xyz(colour::D65_XY)?)?;
+        Some(colour::mat3_mul(
+            &colour::XYZ_TO_LINEAR_SRGB,
+            &colour::mat3_mul(&to_d65, &colour::LINEAR_SRGB_TO_XYZ),
+        ))
+    } else {
+        None
+    };
+    let truth_linear: Vec<f32> = match adapt {
+        None => image.rgb.iter().map(|v| v * scale).collect(),
+        Some(m) => image
+            .rgb
+            .chunks_exact(3)
+            .flat_map(|p| {
+                colour::mat3_mul_vec(&m, [p[0], p[1], p[2]].map(f64::from))
+                    .map(|v| v as f32 * scale)
+            })
+            .collect(),
+    };
     exr::write_rgb(&out("truth_srgb.exr"), w, h, &truth_linear)?;
     exr::write_rgb(&out("truth_camera.exr"), w, h, &capture.truth_camera)?;
     let truth8: Vec<u16> = truth_linear
@@ -593,6 +641,7 @@ pub fn run(
         psnr_fixed_db,
         delta_e_2000_mean,
         delta_e_2000_max,
+        illuminant: illuminant.to_owned(),
         awb_angular_error_deg,
         cct_k: awb.cct_k,
         files: names.iter().map(|n| out(n).display().to_string()).collect(),
@@ -637,8 +686,8 @@ fn report_text(r: &DemoReport, total_s: f64, stages: &[&str]) -> String {
         _ => t += "  ColorChecker: not in this scene\n",
     }
     t += &format!(
-        "  AWB: estimated {:.0} K, {:.2} degrees from the true illuminant\n",
-        r.cct_k, r.awb_angular_error_deg
+        "  AWB: estimated {:.0} K, {:.2} degrees from the true illuminant ({})\n",
+        r.cct_k, r.awb_angular_error_deg, r.illuminant
     );
     t += &format!("  total {total_s:.1} s; files:\n");
     for f in &r.files {
@@ -679,6 +728,7 @@ mod tests {
             psnr_fixed_db: 30.0,
             delta_e_2000_mean: None,
             delta_e_2000_max: None,
+            illuminant: "D65".into(),
             awb_angular_error_deg: 1.0,
             cct_k: 6500.0,
             files: vec![],

@@ -153,3 +153,52 @@ fn calibrate_writes_a_file_isp_reads() {
     assert!(!ok && stderr.contains("D65"), "{stderr}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `--illuminant` relights the scene: under A the AWB finds a warm light (about 2856 K) and
+/// the report measures against A; the chart's colours stay close to the adapted truth. An RGB
+/// scene cannot be relit, and an unknown illuminant is named in the error.
+#[test]
+fn demo_under_illuminant_a_is_lit_by_a() {
+    let dir = temp_dir("demo-a");
+    let out = dir.join("out");
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "demo",
+            "--output",
+            out.to_str().unwrap(),
+            "--width",
+            "300",
+            "--height",
+            "200",
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        camsim(&args)
+    };
+    let (ok, stdout, stderr) = run(&["--illuminant", "A"]);
+    assert!(ok, "{stderr}");
+    let report: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(report["illuminant"], "A");
+    let cct = report["cct_k"].as_f64().unwrap();
+    let awb = report["awb_angular_error_deg"].as_f64().unwrap();
+    let delta_e = report["delta_e_2000_mean"].as_f64().unwrap();
+    println!("under A: CCT {cct:.0} K, AWB {awb:.2} deg, delta E {delta_e:.2}");
+    // Before relighting the scene stayed under D65: an estimate near 6400 K, 20+ degrees off.
+    assert!((2500.0..3300.0).contains(&cct), "{cct}");
+    assert!(awb < 3.0, "{awb}");
+    assert!(delta_e < 5.0, "{delta_e}");
+    let (ok, stdout, _) = run(&[]);
+    assert!(ok);
+    let d65: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(d65["illuminant"], "D65");
+    assert!(d65["cct_k"].as_f64().unwrap() > 5500.0);
+
+    let (ok, _, stderr) = run(&["--scene", "cornell-box", "--illuminant", "A"]);
+    assert!(
+        !ok && stderr.contains("--illuminant") && stderr.contains("D65"),
+        "{stderr}"
+    );
+    let (ok, _, stderr) = run(&["--illuminant", "D75"]);
+    assert!(!ok && stderr.contains("D75"), "{stderr}");
+    let _ = std::fs::remove_dir_all(dir);
+}

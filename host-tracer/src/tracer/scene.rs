@@ -201,9 +201,66 @@ pub struct SceneDesc {
     pub spp: u32,
     /// Default longest path, in segments (1: emitters seen directly only).
     pub max_depth: u32,
+    /// The scene illuminant: the named illuminant of the environment, else of the first light
+    /// that names one (`None` when no light is a named illuminant). [`SceneDesc::relight`]
+    /// replaces it.
+    pub illuminant: Option<String>,
 }
 
 impl SceneDesc {
+    /// Lights the scene with the named illuminant `to` instead of its scene illuminant: every
+    /// emitter (and the environment) whose spectrum is the scene illuminant's gets `to`'s
+    /// spectrum at the same luminance; lights of other spectra (the demo's bokeh lamps) and
+    /// every reflectance stay as they are. Returns how many lights changed (none when `to` is
+    /// already the scene illuminant).
+    ///
+    /// An error when the scene has no scene illuminant (RGB lights only) or `to` is not one of
+    /// [`crate::spectra::ILLUMINANTS`].
+    pub fn relight(&mut self, to: &str) -> crate::Result<usize> {
+        use crate::spectra::{illuminant_bands, xyz_weights};
+        let Some(from) = self.illuminant.clone() else {
+            return Err(crate::Error::out_of_range(
+                format!("scene {}", self.name),
+                "no light is a named illuminant",
+                "a spectral scene with a light given by illuminant = \"...\"",
+            ));
+        };
+        let target = illuminant_bands(to)?;
+        if from == to {
+            return Ok(0);
+        }
+        let source = illuminant_bands(&from)?;
+        let weights = xyz_weights();
+        let luminance =
+            |b: &[f32; BANDS]| -> f32 { b.iter().zip(&weights).map(|(v, w)| v * w[1]).sum() };
+        let (source_y, target_y) = (luminance(&source), luminance(&target));
+        let peak = source.iter().fold(0.0f32, |m, v| m.max(v / source_y));
+        let mut relit = 0;
+        let lights = self
+            .shapes
+            .iter_mut()
+            .filter_map(|s| s.emission.as_mut())
+            .chain(self.environment.as_mut());
+        for light in lights {
+            let Colour::Bands(bands) = light else {
+                continue;
+            };
+            let y = luminance(bands);
+            // The same spectrum up to scale: equal once both are normalised to unit luminance.
+            let same = y > 0.0
+                && bands
+                    .iter()
+                    .zip(&source)
+                    .all(|(v, s)| (v / y - s / source_y).abs() <= 1e-4 * peak);
+            if same {
+                **bands = target.map(|v| v * y / target_y);
+                relit += 1;
+            }
+        }
+        self.illuminant = Some(to.to_owned());
+        Ok(relit)
+    }
+
     /// Whether any colour is spectral, so the scene renders in bands.
     pub fn is_spectral(&self) -> bool {
         self.materials.iter().any(|(_, c)| c.is_spectral())

@@ -495,6 +495,16 @@ pub fn parse(text: &str, name: &str, dir: &Path) -> Result<SceneDesc> {
             super::render::MAX_SPP
         )));
     }
+    // The scene illuminant: the environment's named illuminant, else the first light's.
+    let illuminant = file
+        .environment
+        .as_ref()
+        .and_then(|e| e.get_ref().illuminant.clone())
+        .or_else(|| {
+            file.shape
+                .iter()
+                .find_map(|s| s.get_ref().emission.as_ref()?.illuminant.clone())
+        });
     let desc = SceneDesc {
         name: scene_name.to_string(),
         materials,
@@ -504,6 +514,7 @@ pub fn parse(text: &str, name: &str, dir: &Path) -> Result<SceneDesc> {
         film: (width, height),
         spp,
         max_depth,
+        illuminant,
     };
     // The camera must build (focus beyond the focal length, valid aperture and so on).
     let mut table = super::scene::MaskTable::default();

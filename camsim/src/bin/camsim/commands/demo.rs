@@ -36,9 +36,11 @@ pub struct DemoArgs {
     /// Sensor preset: realistic (noise, shading, defects on) or ideal (all off).
     #[arg(long, value_enum, default_value_t = SensorArg::Realistic)]
     pub sensor: SensorArg,
-    /// The scene's illuminant (for the truth's scale and the AWB error): A, D50, D65, FL2, ...
-    #[arg(long, default_value = "D65")]
-    pub illuminant: String,
+    /// Light the scene with this illuminant: A, D50, D65, FL2, FL11 or LED-B3 (the lights of
+    /// the scene illuminant change spectrum, at the same luminance) [default: the scene's own;
+    /// D65 for an RGB scene].
+    #[arg(long)]
+    pub illuminant: Option<String>,
     /// Calibration file from `camsim calibrate` [default: calibrate under A and D65 now].
     #[arg(long)]
     pub calibration: Option<PathBuf>,
