@@ -26,7 +26,7 @@ use std::time::Instant;
 use host_tracer::calibrate;
 use host_tracer::sensor::{self, LensGeometry, Response, SensorConfig};
 use host_tracer::spectra::{bands_xyz, illuminant_bands};
-use host_tracer::tracer::render::{render_with_progress, RenderProgress, RenderSettings};
+use host_tracer::tracer::render::{render_with_progress, RenderProgress, RenderSettings, Rendered};
 use host_tracer::tracer::scene::SceneDesc;
 use host_tracer::tracer::scene_file;
 use isp_core::ccm::Calibration;
@@ -200,9 +200,25 @@ fn stage_map<S: serde::Serializer>(stages: &[(String, f64)], s: S) -> Result<S::
     s.collect_map(stages.iter().map(|(name, ms)| (name, ms)))
 }
 
+/// The render of `scene` seen by a camera of spectral `response` through the sensor model
+/// (`config`), with the scene camera's lens for vignetting: the raw frame and what the sensor
+/// knows of it.
+pub fn expose(
+    scene: &SceneDesc,
+    image: &Rendered,
+    response: &Response,
+    config: &SensorConfig,
+) -> Result<sensor::Capture, Error> {
+    let camera_rgb = response.camera_rgb(&image.bands, &image.rgb);
+    let (focal_mm, aperture_mm, sensor_mm) = scene.camera.lens_mm(image.width, image.height);
+    let lens = LensGeometry::thin_lens(focal_mm, aperture_mm, sensor_mm);
+    let (w, h) = (image.width as usize, image.height as usize);
+    Ok(sensor::capture(&camera_rgb, w, h, lens, config)?)
+}
+
 /// The calibration to use, from a file or fitted now under A and D65: the DNG's colour tags
 /// and isp-core's calibration.
-fn calibration_for(settings: &DemoSettings) -> Result<(DngColour, Calibration), Error> {
+pub(crate) fn calibration_for(settings: &DemoSettings) -> Result<(DngColour, Calibration), Error> {
     let file = match &settings.calibration {
         Some(path) => {
             let file = CalibrationFile::read(path)?;
@@ -397,10 +413,7 @@ pub fn run(
     let sensor_start = Instant::now();
     let response = Response::named(&args.camera)?;
     let spectral = !image.bands.is_empty();
-    let camera_rgb = response.camera_rgb(&image.bands, &image.rgb);
-    let (focal_mm, aperture_mm, sensor_mm) = scene.camera.lens_mm(image.width, image.height);
-    let lens = LensGeometry::thin_lens(focal_mm, aperture_mm, sensor_mm);
-    let capture = sensor::capture(&camera_rgb, w, h, lens, &config)?;
+    let capture = expose(&scene, &image, &response, &config)?;
     let sensor_s = sensor_start.elapsed().as_secs_f64();
 
     // 3. Calibration and white balance.

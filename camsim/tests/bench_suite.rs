@@ -75,6 +75,27 @@ fn quick_bench_writes_the_json_the_charts_and_the_summary() {
         assert!(lens.curve.len() > 100 && lens.within_ten_percent_m.is_some());
     }
 
+    // Two scenes under six illuminants, four methods; the key-light scene's white patch is
+    // the AWB a camera relies on, within a few degrees even at the quick run's 16 spp.
+    let awb = &results.awb;
+    assert_eq!(awb.scenes.len(), 2);
+    assert_eq!(awb.points.len(), 2 * 6 * 4);
+    for p in &awb.points {
+        assert!(p.error_deg.is_finite() && p.error_deg >= 0.0, "{p:?}");
+        assert!((1500.0..20000.0).contains(&p.cct_k), "{p:?}");
+    }
+    let under_a = awb
+        .points
+        .iter()
+        .find(|p| {
+            p.scene == "demo, key light only" && p.illuminant == "A" && p.method == "white-patch"
+        })
+        .unwrap();
+    assert!(
+        under_a.error_deg < 5.0 && under_a.cct_k < 3500.0,
+        "{under_a:?}"
+    );
+
     for (svg, labels) in [
         (
             "demosaic_pareto.svg",
@@ -100,6 +121,15 @@ fn quick_bench_writes_the_json_the_charts_and_the_summary() {
                 "subject distance (m, log)",
                 "depth of field (m, log)",
                 "hyperfocal",
+            ][..],
+        ),
+        (
+            "awb.svg",
+            &[
+                "angular error (degrees)",
+                "illuminant the scene is lit by",
+                "grey-edge",
+                "LED-B3",
             ][..],
         ),
     ] {

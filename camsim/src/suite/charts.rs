@@ -442,3 +442,94 @@ fn label_offsets<DB: DrawingBackend>(
     }
     offsets
 }
+
+/// Chart 7: each AWB method's angular error under each illuminant, a panel per scene.
+pub fn awb(r: &SuiteResults, path: &Path) -> Result<(), Error> {
+    draw_awb(r, path).map_err(failed(path))
+}
+
+fn draw_awb(r: &SuiteResults, path: &Path) -> Drawn {
+    let a = &r.awb;
+    let root = SVGBackend::new(path, (1400, 620)).into_drawing_area();
+    let body = figure(
+        &root,
+        &format!(
+            "Auto white balance: angular error under six illuminants (simulated {}, {})",
+            a.camera, a.render
+        ),
+        r,
+    )?;
+    let mut illuminants: Vec<&str> = Vec::new();
+    let mut methods: Vec<&str> = Vec::new();
+    for p in &a.points {
+        if !illuminants.contains(&p.illuminant.as_str()) {
+            illuminants.push(&p.illuminant);
+        }
+        if !methods.contains(&p.method.as_str()) {
+            methods.push(&p.method);
+        }
+    }
+    let worst = a.points.iter().map(|p| p.error_deg).fold(1.0, f64::max);
+    let panels = body.split_evenly((1, a.scenes.len().max(1)));
+    for (panel, (scene, _)) in panels.iter().zip(&a.scenes) {
+        let names = illuminants.clone();
+        let label = move |x: &f64| -> String {
+            let i = x.round();
+            if (x - i).abs() < 1e-6 && i >= 0.0 {
+                names
+                    .get(i as usize)
+                    .map_or(String::new(), |n| n.to_string())
+            } else {
+                String::new()
+            }
+        };
+        let mut chart = ChartBuilder::on(panel)
+            .caption(scene.as_str(), (FONT, 17))
+            .margin(12)
+            .x_label_area_size(42)
+            .y_label_area_size(60)
+            .build_cartesian_2d(-0.5..(illuminants.len() as f64 - 0.5), 0.0..worst * 1.25)?;
+        chart
+            .configure_mesh()
+            .disable_x_mesh()
+            .x_labels(2 * illuminants.len() + 1)
+            .x_label_formatter(&label)
+            .x_desc("illuminant the scene is lit by")
+            .y_desc("angular error (degrees)")
+            .y_label_formatter(&|v| format!("{v:.0}"))
+            .label_style((FONT, 12))
+            .draw()?;
+        let width = 0.8 / methods.len().max(1) as f64;
+        for (k, method) in methods.iter().enumerate() {
+            let colour = PALETTE[k % PALETTE.len()];
+            let bars: Vec<_> = a
+                .points
+                .iter()
+                .filter(|p| &p.scene == scene && p.method == *method)
+                .filter_map(|p| {
+                    let i = illuminants.iter().position(|n| *n == p.illuminant)? as f64;
+                    let x = i - 0.4 + width * k as f64;
+                    Some(Rectangle::new(
+                        [(x, 0.0), (x + width * 0.9, p.error_deg)],
+                        colour.filled(),
+                    ))
+                })
+                .collect();
+            chart
+                .draw_series(bars)?
+                .label(*method)
+                .legend(move |(x, y)| {
+                    Rectangle::new([(x, y - 5), (x + 14, y + 5)], colour.filled())
+                });
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK.mix(0.4))
+            .label_font((FONT, 12))
+            .draw()?;
+    }
+    root.present()?;
+    Ok(())
+}

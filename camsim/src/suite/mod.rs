@@ -7,8 +7,10 @@
 //! | [`demosaic`](DemosaicSuite) | `demosaic_pareto.svg` | Mpix/s against CPSNR on Kodak and McMaster at 8 and 16 bits: every camsim method, OpenCV's and colour-demosaicing's |
 //! | [`fixed_vs_float`](FixedFloatSuite) | `fixed_vs_float.svg` | the whole pipeline's 8-bit output, fixed minus float, over the image sets as 12-bit raw; each path's throughput |
 //! | [`depth_of_field`](DofSuite) | `depth_of_field.svg` | the approximation 2u^2Nc/f^2 against the exact near/far limits over subject distance |
+//! | [`awb`](AwbSuite) | `awb.svg` | each AWB method's angular error on the demo scene relit by each of the six vendored illuminants, with and without its lamps |
 //!
-//! Everything runs on one thread. The peers run through the oracle environment's Python (the
+//! Everything timed runs on one thread (the AWB suite's renders use every core; nothing
+//! there is timed). The peers run through the oracle environment's Python (the
 //! one `scripts/test-all.sh` makes); without it the suites run alone and the results say the
 //! peers were skipped and why. `quick` measures a few images on small tiles, for smoke runs.
 //!
@@ -104,6 +106,8 @@ pub struct SuiteResults {
     pub fixed_vs_float: FixedFloatSuite,
     /// Chart 6.
     pub depth_of_field: DofSuite,
+    /// Chart 7.
+    pub awb: AwbSuite,
     /// Why the peers did not run, if they did not.
     pub peers_skipped: Option<String>,
     /// Seconds the whole run took.
@@ -210,13 +214,42 @@ pub struct DofSuite {
     pub lenses: Vec<DofLens>,
 }
 
+/// One AWB estimate of chart 7.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AwbPoint {
+    /// The scene's name in [`AwbSuite::scenes`].
+    pub scene: String,
+    /// The illuminant the scene was lit by.
+    pub illuminant: String,
+    /// The AWB method.
+    pub method: String,
+    /// Angle between the estimated and the true neutral in camera RGB, degrees.
+    pub error_deg: f64,
+    /// The estimate's correlated colour temperature, kelvin.
+    pub cct_k: f64,
+}
+
+/// Chart 7's figures.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AwbSuite {
+    /// `(name, description)` of each scene.
+    pub scenes: Vec<(String, String)>,
+    /// The camera whose response the sensor has.
+    pub camera: String,
+    /// Render size and samples per pixel.
+    pub render: String,
+    /// Every scene, illuminant and method.
+    pub points: Vec<AwbPoint>,
+}
+
 /// The files a run writes, in its folder.
-pub const FILES: [&str; 5] = [
+pub const FILES: [&str; 6] = [
     "bench.json",
     "summary.md",
     "demosaic_pareto.svg",
     "fixed_vs_float.svg",
     "depth_of_field.svg",
+    "awb.svg",
 ];
 
 /// Runs every suite, writes [`FILES`] into `settings.out` and returns the results.
@@ -229,6 +262,7 @@ pub fn run(settings: &SuiteSettings, progress: ProgressFn<'_>) -> Result<SuiteRe
     let fixed_vs_float = fixed_float_suite(settings, progress)?;
     progress("depth of field");
     let depth_of_field = dof_suite()?;
+    let awb = awb_suite(settings, progress)?;
     let results = SuiteResults {
         date: today_utc(),
         machine: Machine::this(),
@@ -237,6 +271,7 @@ pub fn run(settings: &SuiteSettings, progress: ProgressFn<'_>) -> Result<SuiteRe
         demosaic,
         fixed_vs_float,
         depth_of_field,
+        awb,
         peers_skipped,
         seconds: started.elapsed().as_secs_f64(),
     };
@@ -262,6 +297,7 @@ pub fn write_all(
     charts::demosaic_pareto(results, &out.join("demosaic_pareto.svg"))?;
     charts::fixed_vs_float(results, &out.join("fixed_vs_float.svg"))?;
     charts::depth_of_field(results, &out.join("depth_of_field.svg"))?;
+    charts::awb(results, &out.join("awb.svg"))?;
     write("summary.md", &summary(results))
 }
 
@@ -594,6 +630,87 @@ fn dof_suite() -> Result<DofSuite, Error> {
     })
 }
 
+/// The illuminants of the vendored spectra (`data/spectra/illuminants.csv`).
+const ILLUMINANTS: [&str; 6] = ["A", "D50", "D65", "FL2", "FL11", "LED-B3"];
+/// The AWB methods, by their command-line names.
+const AWB_METHODS: [&str; 4] = ["grey-world", "white-patch", "shades-of-grey", "grey-edge"];
+/// The camera chart 7 simulates.
+const AWB_CAMERA: &str = "nikon-5100";
+
+fn awb_suite(settings: &SuiteSettings, progress: ProgressFn<'_>) -> Result<AwbSuite, Error> {
+    use host_tracer::calibrate::illuminant_colour;
+    use host_tracer::sensor::{Response, SensorConfig};
+    use host_tracer::tracer::render::{render, RenderSettings};
+    use isp_core::metrics::angular_error_deg;
+    use isp_core::wb::{self, AwbMethod};
+
+    let demo = host_tracer::tracer::scene_file::load("demo")?;
+    let mut key_only = demo.clone();
+    key_only.shapes.retain(|s| s.name != "bokeh");
+    let scenes = [
+        (
+            "demo",
+            "camsim's demo scene: a ColorChecker on a dark board under one area light and a dim \
+             environment of the illuminant, a white ball, black and white checks, and six small \
+             bright illuminant-A lamps far behind (out of focus; they stay A)",
+            demo,
+        ),
+        (
+            "demo, key light only",
+            "the same without the six lamps: every light is the illuminant",
+            key_only,
+        ),
+    ];
+    let (_, calibration) = crate::demo::calibration_for(&crate::demo::DemoSettings::default())?;
+    let to_xyz = calibration.camera_to_xyz(6504.0)?;
+    let response = Response::named(AWB_CAMERA)?;
+    let mut config = SensorConfig::realistic();
+    config.camera = AWB_CAMERA.into();
+    config.frame_seed = 1;
+    let (width, height, spp) = if settings.quick {
+        (150, 100, 16)
+    } else {
+        (600, 400, 64)
+    };
+    let mut points = Vec::new();
+    for (name, _, scene) in &scenes {
+        for illuminant in ILLUMINANTS {
+            progress(&format!("AWB: {name} under {illuminant}"));
+            let mut scene = scene.clone();
+            scene.relight(illuminant)?;
+            let mut render_settings = RenderSettings::for_scene(&scene);
+            render_settings.width = width;
+            render_settings.height = height;
+            render_settings.spp = spp;
+            render_settings.threads = 0;
+            render_settings.seed = 1;
+            let image = render(&scene, &render_settings)?;
+            let capture = crate::demo::expose(&scene, &image, &response, &config)?;
+            let raw = capture.raw.frame()?;
+            let (_, truth) = illuminant_colour(illuminant, &response)?;
+            for method in AWB_METHODS {
+                let estimate = wb::estimate(&raw, AwbMethod::from_name(method)?, &to_xyz)?;
+                points.push(AwbPoint {
+                    scene: name.to_string(),
+                    illuminant: illuminant.into(),
+                    method: method.into(),
+                    error_deg: angular_error_deg(estimate.neutral.map(f64::from), truth),
+                    cct_k: calibration.cct_of_neutral(estimate.neutral)?,
+                });
+            }
+        }
+    }
+    Ok(AwbSuite {
+        scenes: scenes
+            .iter()
+            .map(|(n, d, _)| (n.to_string(), d.to_string()))
+            .collect(),
+        camera: AWB_CAMERA.into(),
+        render: format!("{width} x {height}, {spp} spp, realistic sensor"),
+        points,
+    })
+}
+
 /// Today's date in UTC, `YYYY-MM-DD` (the civil date of the Unix day count; Howard Hinnant's
 /// `civil_from_days`).
 pub fn today_utc() -> String {
@@ -704,6 +821,40 @@ pub fn summary(r: &SuiteResults) -> String {
             "| {} | {} | {:.1} | {:.1} |\n",
             s.path, s.method, s.ms_per_frame, s.mpix_per_s
         );
+    }
+    let a = &r.awb;
+    md += &format!(
+        "\n## Auto white balance under six illuminants\n\n![AWB error](awb.svg)\n\n\
+         Angular error of each AWB method's neutral against the illuminant's, in camera RGB \
+         (simulated {}, {}); the scene is relit for each illuminant \
+         (`camsim demo --illuminant`).\n\n",
+        a.camera, a.render
+    );
+    for (name, description) in &a.scenes {
+        md += &format!("- **{name}**: {description}.\n");
+    }
+    for (name, _) in &a.scenes {
+        md += &format!("\n{name}, degrees (estimated CCT):\n\n| illuminant |");
+        for m in AWB_METHODS {
+            md += &format!(" {m} |");
+        }
+        md += "\n|---|";
+        md += &"---|".repeat(AWB_METHODS.len());
+        md += "\n";
+        for illuminant in ILLUMINANTS {
+            md += &format!("| {illuminant} |");
+            for m in AWB_METHODS {
+                match a
+                    .points
+                    .iter()
+                    .find(|p| p.scene == *name && p.illuminant == illuminant && p.method == m)
+                {
+                    Some(p) => md += &format!(" {:.2} ({:.0} K) |", p.error_deg, p.cct_k),
+                    None => md += " – |",
+                }
+            }
+            md += "\n";
+        }
     }
     md += &format!(
         "\n## Depth of field: where 2u²Nc/f² breaks down\n\n![Depth of field](depth_of_field.svg)\n\n\
