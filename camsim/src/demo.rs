@@ -339,12 +339,95 @@ pub struct DemoOutcome {
     pub json: String,
 }
 
-/// Runs the demo (see the module docs), reporting each step to `progress`.
-pub fn run(
+/// A scene rendered, captured and calibrated as `camsim demo` does before its ISP: the raw
+/// frame with the sensor's factory calibration (defect map, shading grid), the AWB's white
+/// balance and the colour matrix it selects, and the ground truth (what a perfect camera
+/// would output, 8-bit sRGB).
+pub struct Captured {
+    /// The scene as rendered (relit if asked).
+    pub scene: SceneDesc,
+    /// The illuminant it was lit by.
+    pub illuminant: String,
+    /// Whether it rendered spectrally (else camera RGB is linear sRGB).
+    pub spectral: bool,
+    /// Samples per pixel of the render.
+    pub spp: u32,
+    /// Render time, s.
+    pub render_s: f64,
+    /// Sensor simulation time, s.
+    pub sensor_s: f64,
+    /// The sensor's output.
+    pub capture: sensor::Capture,
+    /// The camera's response.
+    pub response: Response,
+    /// The DNG's colour tags (without AsShotNeutral).
+    pub dng_colour: DngColour,
+    /// The AWB estimate (with its CCT).
+    pub awb: wb::AwbEstimate,
+    /// Its angle to the true illuminant's neutral, degrees.
+    pub awb_angular_error_deg: f64,
+    /// The colour matrix for the AWB's white balance.
+    pub ccm: [[f32; 3]; 3],
+    /// The factory defect map.
+    pub defects: Vec<Defect>,
+    /// The factory shading grid (17 x 13 nodes, Q4.12), if the sensor shades.
+    pub shading_grid: Option<Vec<u16>>,
+    /// Whether the sensor adds noise (the demo then denoises a little).
+    pub noisy: bool,
+    /// The truth, linear sRGB on the ISP's output scale.
+    pub truth_linear: Vec<f32>,
+    /// The truth, 8-bit sRGB.
+    pub truth8: Vec<u16>,
+}
+
+impl Captured {
+    /// Image width.
+    pub fn width(&self) -> usize {
+        self.capture.raw.width
+    }
+
+    /// Image height.
+    pub fn height(&self) -> usize {
+        self.capture.raw.height
+    }
+
+    /// The demo's ISP denoise strength: a little where the sensor is noisy.
+    pub fn default_denoise(&self) -> f32 {
+        if self.noisy {
+            0.01
+        } else {
+            0.0
+        }
+    }
+
+    /// The ISP configuration `camsim demo` runs on this frame, with `demosaic` and `denoise`.
+    pub fn isp_config(&self, demosaic: Method, denoise: f32) -> Result<IspConfig<'_>, Error> {
+        Ok(IspConfig {
+            dpc: DpcConfig {
+                static_defects: &self.defects,
+                dynamic_threshold: None,
+            },
+            lsc: self
+                .shading_grid
+                .as_ref()
+                .map(|g| LensShading::new(17, 13, g))
+                .transpose()?,
+            wb_gains: self.awb.gains,
+            demosaic,
+            denoise,
+            highlight_knee: develop::DEFAULT_HIGHLIGHT_KNEE,
+            ccm: self.ccm,
+            ..IspConfig::default()
+        })
+    }
+}
+
+/// Steps 1 to 3 of the demo: renders the scene under the illuminant asked for, captures it
+/// through the sensor, calibrates and white-balances, and computes the truth; writes nothing.
+pub fn capture(
     args: &DemoSettings,
     progress: &(dyn Fn(DemoProgress<'_>) + Sync),
-) -> Result<DemoOutcome, Error> {
-    let started = Instant::now();
+) -> Result<Captured, Error> {
     let step = |n: usize, what: &str| progress(DemoProgress::Step { n, what });
     let mut config = match args.sensor {
         SensorPreset::Realistic => SensorConfig::realistic(),
@@ -357,10 +440,6 @@ pub fn run(
     config.exposure_s = args.exposure;
     config.frame_seed = args.seed;
     config.validate()?;
-    let (awb_method, demosaic) = (args.awb, args.demosaic);
-    std::fs::create_dir_all(&args.output)
-        .map_err(|e| raw_formats::FormatError::io(&args.output, e))?;
-    let out = |name: &str| args.output.join(name);
 
     // 1. Render, under the illuminant asked for.
     let mut scene = scene_file::load(&args.scene)?;
@@ -383,7 +462,6 @@ pub fn run(
             })
         }
     };
-    let illuminant = illuminant.as_str();
     let mut settings = RenderSettings::for_scene(&scene);
     settings.width = args.width.unwrap_or(settings.width);
     settings.height = args.height.unwrap_or(settings.height);
@@ -398,7 +476,6 @@ pub fn run(
         ),
     );
     let image = render_with_progress(&scene, &settings, &|p| progress(DemoProgress::Render(p)))?;
-    let (w, h) = (image.width as usize, image.height as usize);
 
     // 2. Sensor.
     step(
@@ -434,42 +511,23 @@ pub fn run(
     };
     let raw_frame = capture.raw.frame()?;
     let to_xyz = calibration.camera_to_xyz(6504.0)?;
-    let mut awb = wb::estimate(&raw_frame, awb_method, &to_xyz)?;
+    let mut awb = wb::estimate(&raw_frame, args.awb, &to_xyz)?;
     awb.cct_k = calibration.cct_of_neutral(awb.neutral)?;
     let (_, true_neutral) = if spectral {
-        calibrate::illuminant_colour(illuminant, &response)?
+        calibrate::illuminant_colour(&illuminant, &response)?
     } else {
         ([0.0; 3], [1.0; 3])
     };
     let awb_angular_error_deg = angular_error_deg(awb.neutral.map(|v| v as f64), true_neutral);
+    let ccm = calibration
+        .ccm_for_white_balance(awb.gains)
+        .map_err(|e| Error::in_stage("colour matrix", e))?
+        .ccm;
 
-    // 4. Files: DNG, plain mosaic, truth.
-    step(4, "writing raw.dng, raw.png and the ground truth");
-    let dng = Dng {
-        image: capture.raw.clone(),
-        camera_model: format!("camsim {}", response.name()),
-        colour: DngColour {
-            as_shot_neutral: Some(awb.neutral.map(|v| v as f64)),
-            ..dng_colour
-        },
-        framing: Default::default(),
-        processing: Default::default(),
-    };
-    dng.write(&out("raw.dng"))?;
-    raw_formats::image::write(
-        &out("raw.png"),
-        &Image {
-            width: w,
-            height: h,
-            channels: 1,
-            bits: 16,
-            data: capture.raw.samples.clone(),
-        },
-    )?;
     // The truth's scale: a neutral under the scene illuminant with camera green g (in ISP
     // units) comes out of a perfect ISP with luminance g.
     let green_per_luminance = if spectral {
-        let bands = illuminant_bands(illuminant)?;
+        let bands = illuminant_bands(&illuminant)?;
         response.of_bands(&bands)[1] as f64 / bands_xyz(&bands)[1]
     } else {
         1.0
@@ -479,7 +537,7 @@ pub fn run(
     // it: its colours adapted (Bradford) from the illuminant's white to sRGB's D65 white,
     // which is what the ISP's white balance and colour matrix aim at.
     let adapt = if spectral && illuminant != "D65" {
-        let white = bands_xyz(&illuminant_bands(illuminant)?);
+        let white = bands_xyz(&illuminant_bands(&illuminant)?);
         let white = white.map(|v| v / white[1]);
         let to_d65 = colour::bradford_adaptation(white, colour::xy_to_xyz(colour::D65_XY)?)?;
         Some(colour::mat3_mul(
@@ -500,12 +558,90 @@ pub fn run(
             })
             .collect(),
     };
-    exr::write_rgb(&out("truth_srgb.exr"), w, h, &truth_linear)?;
-    exr::write_rgb(&out("truth_camera.exr"), w, h, &capture.truth_camera)?;
     let truth8: Vec<u16> = truth_linear
         .iter()
         .map(|v| (isp_core::srgb::encode(v.clamp(0.0, 1.0)) * 255.0).round() as u16)
         .collect();
+    let defects = capture
+        .defects
+        .iter()
+        .map(|&(x, y, _)| Defect {
+            x: x as u16,
+            y: y as u16,
+        })
+        .collect();
+    let shading_grid = capture
+        .shading
+        .is_active()
+        .then(|| capture.shading.correction_grid(17, 13, capture.raw.pattern));
+    Ok(Captured {
+        scene,
+        illuminant,
+        spectral,
+        spp: settings.spp,
+        render_s: (image.elapsed + image.prepare).as_secs_f64(),
+        sensor_s,
+        noisy: config.noise != sensor::NoiseConfig::default(),
+        capture,
+        response,
+        dng_colour,
+        awb,
+        awb_angular_error_deg,
+        ccm,
+        defects,
+        shading_grid,
+        truth_linear,
+        truth8,
+    })
+}
+
+/// Runs the demo (see the module docs), reporting each step to `progress`.
+pub fn run(
+    args: &DemoSettings,
+    progress: &(dyn Fn(DemoProgress<'_>) + Sync),
+) -> Result<DemoOutcome, Error> {
+    let started = Instant::now();
+    let step = |n: usize, what: &str| progress(DemoProgress::Step { n, what });
+    std::fs::create_dir_all(&args.output)
+        .map_err(|e| raw_formats::FormatError::io(&args.output, e))?;
+    let out = |name: &str| args.output.join(name);
+    let captured = capture(args, progress)?;
+    let Captured {
+        ref scene,
+        ref capture,
+        ref response,
+        ref awb,
+        ref truth_linear,
+        ref truth8,
+        ..
+    } = captured;
+    let (w, h) = (captured.width(), captured.height());
+
+    // 4. Files: DNG, plain mosaic, truth.
+    step(4, "writing raw.dng, raw.png and the ground truth");
+    let dng = Dng {
+        image: capture.raw.clone(),
+        camera_model: format!("camsim {}", response.name()),
+        colour: DngColour {
+            as_shot_neutral: Some(awb.neutral.map(|v| v as f64)),
+            ..captured.dng_colour.clone()
+        },
+        framing: Default::default(),
+        processing: Default::default(),
+    };
+    dng.write(&out("raw.dng"))?;
+    raw_formats::image::write(
+        &out("raw.png"),
+        &Image {
+            width: w,
+            height: h,
+            channels: 1,
+            bits: 16,
+            data: capture.raw.samples.clone(),
+        },
+    )?;
+    exr::write_rgb(&out("truth_srgb.exr"), w, h, truth_linear)?;
+    exr::write_rgb(&out("truth_camera.exr"), w, h, &capture.truth_camera)?;
 
     // 5. ISP, read back from the DNG as `camsim isp` would.
     step(5, "ISP: float reference and fixed-point paths");
@@ -516,41 +652,7 @@ pub fn run(
         ));
     }
     let raw_back = back.image.frame()?;
-    let gains = awb.gains;
-    let ccm = calibration
-        .ccm_for_white_balance(gains)
-        .map_err(|e| Error::in_stage("colour matrix", e))?
-        .ccm;
-    let defects: Vec<Defect> = capture
-        .defects
-        .iter()
-        .map(|&(x, y, _)| Defect {
-            x: x as u16,
-            y: y as u16,
-        })
-        .collect();
-    let grid = if capture.shading.is_active() {
-        Some(capture.shading.correction_grid(17, 13, capture.raw.pattern))
-    } else {
-        None
-    };
-    let noisy = config.noise != sensor::NoiseConfig::default();
-    let isp_config = IspConfig {
-        dpc: DpcConfig {
-            static_defects: &defects,
-            dynamic_threshold: None,
-        },
-        lsc: grid
-            .as_ref()
-            .map(|g| LensShading::new(17, 13, g))
-            .transpose()?,
-        wb_gains: gains,
-        demosaic,
-        denoise: if noisy { 0.01 } else { 0.0 },
-        highlight_knee: develop::DEFAULT_HIGHLIGHT_KNEE,
-        ccm,
-        ..IspConfig::default()
-    };
+    let isp_config = captured.isp_config(args.demosaic, captured.default_denoise())?;
     // The demo's report lists each stage's time: ablation on the demo's small frame.
     let run = develop::RunOptions {
         stage_times: true,
@@ -574,7 +676,7 @@ pub fn run(
     raw_formats::image::write(&out("truth.png"), &truth_img)?;
     let mut side = Vec::with_capacity(w * h * 9);
     for y in 0..h {
-        for img in [&truth8, &float_rgb.data, &fixed_rgb.data] {
+        for img in [truth8, &float_rgb.data, &fixed_rgb.data] {
             side.extend_from_slice(&img[3 * w * y..3 * w * (y + 1)]);
         }
     }
@@ -591,14 +693,14 @@ pub fn run(
 
     // 6. Measure.
     step(6, "measuring");
-    let psnr_db = psnr(&float_rgb.data, &truth8, 255.0);
-    let psnr_fixed_db = psnr(&fixed_rgb.data, &truth8, 255.0);
+    let psnr_db = psnr(&float_rgb.data, truth8, 255.0);
+    let psnr_fixed_db = psnr(&fixed_rgb.data, truth8, 255.0);
     let white = colour::xy_to_xyz(colour::D65_XY)?;
     let mut errors = Vec::new();
-    for (_, centre) in patch_centres(&scene, w, h) {
+    for (_, centre) in patch_centres(scene, w, h) {
         let (Some(ours), Some(truth)) = (
             mean_linear(&float_rgb.data, w, h, centre, 6),
-            mean_linear(&truth8, w, h, centre, 6),
+            mean_linear(truth8, w, h, centre, 6),
         ) else {
             continue;
         };
@@ -634,9 +736,9 @@ pub fn run(
         sensor: args.sensor.name().to_owned(),
         width: w,
         height: h,
-        spp: settings.spp,
-        render_s: (image.elapsed + image.prepare).as_secs_f64(),
-        sensor_s,
+        spp: captured.spp,
+        render_s: captured.render_s,
+        sensor_s: captured.sensor_s,
         exposure_s: capture.exposure_s,
         isp_stage_ms: float_report
             .stage_ms
@@ -654,8 +756,8 @@ pub fn run(
         psnr_fixed_db,
         delta_e_2000_mean,
         delta_e_2000_max,
-        illuminant: illuminant.to_owned(),
-        awb_angular_error_deg,
+        illuminant: captured.illuminant.clone(),
+        awb_angular_error_deg: captured.awb_angular_error_deg,
         cct_k: awb.cct_k,
         files: names.iter().map(|n| out(n).display().to_string()).collect(),
     };
