@@ -59,6 +59,34 @@ fn quick_bench_writes_the_json_the_charts_and_the_summary() {
         .count();
     assert_eq!(camsim_methods, camsim::demosaic::Demosaic::ALL.len());
 
+    // Each path, method and denoise strength on the rendered demo scene; with the peers,
+    // OpenCV's pipeline with its output's PSNR. Directional beats bilinear on quality.
+    let pipeline = &results.pipeline;
+    assert_eq!(pipeline.points.len(), 2 * 3 * 3);
+    for q in &pipeline.points {
+        assert!(
+            q.mpix_per_s > 0.0 && (10.0..60.0).contains(&q.psnr_db),
+            "{q:?}"
+        );
+    }
+    let psnr_of = |method: &str| {
+        pipeline
+            .points
+            .iter()
+            .find(|q| q.method == method && q.path == "float" && q.denoise == 0.0)
+            .unwrap()
+            .psnr_db
+    };
+    assert!(psnr_of("directional") > psnr_of("bilinear"));
+    assert!(pipeline.copy.mpix_per_s > 0.0 && pipeline.copy.psnr_db.is_none());
+    if results.peers_skipped.is_none() {
+        let opencv = pipeline.opencv.as_ref().unwrap();
+        assert!(
+            opencv.mpix_per_s > 0.0 && opencv.psnr_db.unwrap() > 10.0,
+            "{opencv:?}"
+        );
+    }
+
     let f = &results.fixed_vs_float;
     assert_eq!(f.images, 4);
     assert_eq!(f.agreement.len(), 3);
@@ -121,6 +149,14 @@ fn quick_bench_writes_the_json_the_charts_and_the_summary() {
                 "subject distance (m, log)",
                 "depth of field (m, log)",
                 "hyperfocal",
+            ][..],
+        ),
+        (
+            "pipeline.svg",
+            &[
+                "PSNR of the 8-bit output against the truth (dB)",
+                "directional, fixed path",
+                "copy of the raw frame",
             ][..],
         ),
         (

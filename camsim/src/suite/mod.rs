@@ -5,6 +5,7 @@
 //! | suite | chart | what |
 //! |---|---|---|
 //! | [`demosaic`](DemosaicSuite) | `demosaic_pareto.svg` | Mpix/s against CPSNR on Kodak and McMaster at 8 and 16 bits: every camsim method, OpenCV's and colour-demosaicing's |
+//! | [`pipeline`](PipelineSuite) | `pipeline.svg` | the whole ISP's Mpix/s against its output's PSNR on the rendered demo scene, each path, method and denoise strength, with a copy and OpenCV's pipeline |
 //! | [`fixed_vs_float`](FixedFloatSuite) | `fixed_vs_float.svg` | the whole pipeline's 8-bit output, fixed minus float, over the image sets as 12-bit raw; each path's throughput |
 //! | [`depth_of_field`](DofSuite) | `depth_of_field.svg` | the approximation 2u^2Nc/f^2 against the exact near/far limits over subject distance |
 //! | [`awb`](AwbSuite) | `awb.svg` | each AWB method's angular error on the demo scene relit by each of the six vendored illuminants, with and without its lamps |
@@ -102,6 +103,8 @@ pub struct SuiteResults {
     pub quick: bool,
     /// Chart 1.
     pub demosaic: DemosaicSuite,
+    /// Chart 2.
+    pub pipeline: PipelineSuite,
     /// Chart 3.
     pub fixed_vs_float: FixedFloatSuite,
     /// Chart 6.
@@ -242,11 +245,57 @@ pub struct AwbSuite {
     pub points: Vec<AwbPoint>,
 }
 
+/// One pipeline configuration of chart 2.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PipelinePoint {
+    /// `float` or `fixed`.
+    pub path: String,
+    /// The demosaicing method.
+    pub method: String,
+    /// Denoise strength (0: off).
+    pub denoise: f32,
+    /// PSNR of the 8-bit output against the truth, dB.
+    pub psnr_db: f64,
+    /// Best time per frame, ms.
+    pub ms_per_frame: f64,
+    /// Megapixels per second.
+    pub mpix_per_s: f64,
+}
+
+/// A peer on chart 2's axes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PipelinePeer {
+    /// What it does.
+    pub what: String,
+    /// Best time per frame, ms.
+    pub ms_per_frame: f64,
+    /// Megapixels per second.
+    pub mpix_per_s: f64,
+    /// PSNR of its output against the truth, dB (none for a copy).
+    pub psnr_db: Option<f64>,
+}
+
+/// Chart 2's figures.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PipelineSuite {
+    /// The rendered scene and the camera.
+    pub scene: String,
+    /// The stages every configuration runs.
+    pub stages: String,
+    /// Every path, method and denoise strength.
+    pub points: Vec<PipelinePoint>,
+    /// A plain copy of the raw frame's bytes.
+    pub copy: PipelinePeer,
+    /// The OpenCV pipeline of `camsim bench isp`, if the oracle environment ran it.
+    pub opencv: Option<PipelinePeer>,
+}
+
 /// The files a run writes, in its folder.
-pub const FILES: [&str; 6] = [
+pub const FILES: [&str; 7] = [
     "bench.json",
     "summary.md",
     "demosaic_pareto.svg",
+    "pipeline.svg",
     "fixed_vs_float.svg",
     "depth_of_field.svg",
     "awb.svg",
@@ -259,6 +308,7 @@ pub fn run(settings: &SuiteSettings, progress: ProgressFn<'_>) -> Result<SuiteRe
         .map_err(|e| raw_formats::FormatError::io(&settings.out, e))?;
     let mut peers_skipped = None;
     let demosaic = demosaic_suite(settings, &mut peers_skipped, progress)?;
+    let pipeline = pipeline_suite(settings, &mut peers_skipped, progress)?;
     let fixed_vs_float = fixed_float_suite(settings, progress)?;
     progress("depth of field");
     let depth_of_field = dof_suite()?;
@@ -269,6 +319,7 @@ pub fn run(settings: &SuiteSettings, progress: ProgressFn<'_>) -> Result<SuiteRe
         command: settings.command.clone(),
         quick: settings.quick,
         demosaic,
+        pipeline,
         fixed_vs_float,
         depth_of_field,
         awb,
@@ -295,6 +346,7 @@ pub fn write_all(
     write("bench.json", &(json + "\n"))?;
     progress("charts");
     charts::demosaic_pareto(results, &out.join("demosaic_pareto.svg"))?;
+    charts::pipeline(results, &out.join("pipeline.svg"))?;
     charts::fixed_vs_float(results, &out.join("fixed_vs_float.svg"))?;
     charts::depth_of_field(results, &out.join("depth_of_field.svg"))?;
     charts::awb(results, &out.join("awb.svg"))?;
@@ -409,6 +461,145 @@ fn run_python(
         ));
     }
     serde_json::from_slice(&output.stdout).map_err(|e| format!("the peer script's reply: {e}"))
+}
+
+/// Chart 2's denoise strengths.
+const DENOISE: [f32; 3] = [0.0, 0.01, 0.03];
+
+fn pipeline_suite(
+    settings: &SuiteSettings,
+    peers_skipped: &mut Option<String>,
+    progress: ProgressFn<'_>,
+) -> Result<PipelineSuite, Error> {
+    use crate::demo::{capture, DemoSettings};
+    use isp_core::metrics::psnr;
+    use isp_core::pipeline::Input;
+
+    let (width, height, spp, repeats) = if settings.quick {
+        (300, 200, 16, 3)
+    } else {
+        (600, 400, 64, 20)
+    };
+    progress(&format!(
+        "pipeline: rendering the demo scene at {width} x {height}, {spp} spp"
+    ));
+    let demo = DemoSettings {
+        width: Some(width),
+        height: Some(height),
+        spp: Some(spp),
+        ..DemoSettings::default()
+    };
+    let captured = capture(&demo, &|_| {})?;
+    let (w, h) = (captured.width(), captured.height());
+    let raw = captured.capture.raw.frame()?;
+    let input = Input::Mosaic(raw);
+    // Speed is timed on the frame tiled 4 x 4 (the CFA phase kept: the sides are even), so
+    // the frame is megapixels, as a camera's is, not a few hundred kilopixels that stay in
+    // cache; quality is measured on the frame itself.
+    let source = &captured.capture.raw;
+    let (tw, th) = (4 * w, 4 * h);
+    let tiled = RawImage::new(
+        tw,
+        th,
+        source.pattern,
+        source.bits,
+        source.black_level,
+        source.white_level,
+        (0..tw * th)
+            .map(|i| source.samples[(i / tw % h) * w + i % tw % w])
+            .collect(),
+    )?;
+    let tiled_frame = tiled.frame()?;
+    let tiled_input = Input::Mosaic(tiled_frame);
+    let mpix = |ms: f64| (tw * th) as f64 / (ms * 1e3);
+    let score = |out: &[u8]| {
+        let out: Vec<u16> = out.iter().map(|v| u16::from(*v)).collect();
+        psnr(&out, &captured.truth8, 255.0)
+    };
+    let mut points = Vec::new();
+    for fixed in [false, true] {
+        let path = if fixed { "fixed" } else { "float" };
+        for method in PIPELINE_METHODS {
+            for denoise in DENOISE {
+                progress(&format!(
+                    "pipeline: {path} {} denoise {denoise}",
+                    method.name()
+                ));
+                let config = captured.isp_config(method, denoise)?;
+                let mut out = vec![0u8; w * h * 3];
+                Runner::new(&input, &config, fixed, 8, 1)?.best_ms(&mut out, 1)?;
+                let ms = Runner::new(&tiled_input, &config, fixed, 8, 1)?
+                    .best_ms(&mut vec![0u8; tw * th * 3], repeats)?;
+                points.push(PipelinePoint {
+                    path: path.into(),
+                    method: method.name().into(),
+                    denoise,
+                    psnr_db: score(&out),
+                    ms_per_frame: ms,
+                    mpix_per_s: mpix(ms),
+                });
+            }
+        }
+    }
+    let copy_ms = copy_ms(&tiled.samples, repeats.max(10));
+    let copy = PipelinePeer {
+        what: "copy of the raw frame".into(),
+        ms_per_frame: copy_ms,
+        mpix_per_s: mpix(copy_ms),
+        psnr_db: None,
+    };
+    progress("pipeline: OpenCV");
+    let config = captured.isp_config(Method::Bilinear, 0.0)?;
+    let mut image = Vec::new();
+    let opencv = match opencv_pipeline(&settings.python, &raw, &config, 1, 1, Some(&mut image))
+        .and_then(|_| opencv_pipeline(&settings.python, &tiled_frame, &config, 1, repeats, None))
+    {
+        Ok(ms) => Some(PipelinePeer {
+            what: "OpenCV: subtract, cvtColor (Bayer bilinear), multiply, transform, LUT".into(),
+            ms_per_frame: ms,
+            mpix_per_s: mpix(ms),
+            psnr_db: Some(score(&image)),
+        }),
+        Err(why) if !settings.require_peers => {
+            peers_skipped.get_or_insert(why);
+            None
+        }
+        Err(why) => {
+            return Err(Error::Message(format!(
+                "the OpenCV pipeline did not run: {why}"
+            )))
+        }
+    };
+    Ok(PipelineSuite {
+        scene: format!(
+            "camsim's demo scene, {w} x {h}, {spp} spp, through a simulated {} ({} sensor, ISO {}, \
+             {}-bit); timed on it tiled 4 x 4 ({tw} x {th})",
+            demo.camera,
+            demo.sensor.name(),
+            demo.iso,
+            demo.bits
+        ),
+        stages:
+            "static defects, lens shading, white balance (AWB), demosaic, denoise, highlights, \
+                 colour matrix, sRGB encoding; one thread"
+                .into(),
+        points,
+        copy,
+        opencv,
+    })
+}
+
+/// The fastest of `repeats` copies of `samples` into another buffer, in milliseconds.
+pub fn copy_ms(samples: &[u16], repeats: u32) -> f64 {
+    let mut target = vec![0u16; samples.len()];
+    let mut best = f64::INFINITY;
+    for _ in 0..repeats.max(1) {
+        let start = Instant::now();
+        target.copy_from_slice(std::hint::black_box(samples));
+        std::hint::black_box(&mut target);
+        best = best.min(start.elapsed().as_secs_f64() * 1e3);
+    }
+    best
 }
 
 /// The 12-bit raw the fixed-against-float comparison runs on: black 64, 255 maps to 3889.
@@ -630,6 +821,80 @@ fn dof_suite() -> Result<DofSuite, Error> {
     })
 }
 
+/// Runs the OpenCV pipeline (`isp_opencv.py`: black level, Bayer `cvtColor`, gains,
+/// `cv2.transform`, `cv2.LUT`) on `raw` with `config`'s gains and matrix through `python`;
+/// its best time over `repeats` in milliseconds, or why it could not run. With `output`, its
+/// 8-bit RGB image (`3 * width * height` samples) is read back into it.
+pub fn opencv_pipeline(
+    python: &Path,
+    raw: &RawFrame<'_>,
+    config: &IspConfig<'_>,
+    threads: usize,
+    repeats: u32,
+    output: Option<&mut Vec<u8>>,
+) -> Result<f64, String> {
+    if !python.exists() {
+        return Err(format!(
+            "no oracle Python at {} (scripts/test-all.sh creates .venv; or set CAMSIM_ORACLE_PYTHON)",
+            python.display()
+        ));
+    }
+    let mosaic = raw.mosaic();
+    let (w, h) = (mosaic.width(), mosaic.height());
+    let bytes: Vec<u8> = (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .flat_map(|(x, y)| mosaic.get(x, y).unwrap_or(0).to_le_bytes())
+        .collect();
+    let stem = std::env::temp_dir().join(format!("camsim-isp-opencv-{}", std::process::id()));
+    let (frame, image) = (stem.with_extension("u16"), stem.with_extension("rgb"));
+    std::fs::write(&frame, &bytes).map_err(|e| format!("writing {}: {e}", frame.display()))?;
+    let pattern = format!("{:?}", mosaic.pattern()).to_uppercase();
+    let request = serde_json::json!({
+        "frame": frame.display().to_string(),
+        "width": w,
+        "height": h,
+        "pattern": pattern,
+        "black": raw.black_level()[0],
+        "white": raw.white_level(),
+        "wb": config.wb_gains.map(|g| g * config.gain),
+        "ccm": config.ccm,
+        "sharpen": config.sharpen,
+        "threads": threads,
+        "repeats": repeats.max(1),
+        "output": output.is_some().then(|| image.display().to_string()),
+    });
+    let result = std::process::Command::new(python)
+        .arg("-c")
+        .arg(include_str!("isp_opencv.py"))
+        .arg(request.to_string())
+        .output();
+    let _ = std::fs::remove_file(&frame);
+    let result = result.map_err(|e| format!("running {}: {e}", python.display()))?;
+    if !result.status.success() {
+        let _ = std::fs::remove_file(&image);
+        let stderr = String::from_utf8_lossy(&result.stderr);
+        let last = stderr.lines().last().unwrap_or("no message");
+        return Err(format!("the OpenCV script failed: {last}"));
+    }
+    if let Some(out) = output {
+        let read = std::fs::read(&image);
+        let _ = std::fs::remove_file(&image);
+        *out = read.map_err(|e| format!("reading {}: {e}", image.display()))?;
+        if out.len() != 3 * w * h {
+            return Err(format!(
+                "the OpenCV script wrote {} bytes, not {}",
+                out.len(),
+                3 * w * h
+            ));
+        }
+    }
+    let reply: serde_json::Value = serde_json::from_slice(&result.stdout)
+        .map_err(|e| format!("the OpenCV script's reply: {e}"))?;
+    reply["ms_per_frame"]
+        .as_f64()
+        .ok_or_else(|| "the OpenCV script gave no time".into())
+}
+
 /// The illuminants of the vendored spectra (`data/spectra/illuminants.csv`).
 const ILLUMINANTS: [&str; 6] = ["A", "D50", "D65", "FL2", "FL11", "LED-B3"];
 /// The AWB methods, by their command-line names.
@@ -787,6 +1052,28 @@ pub fn summary(r: &SuiteResults) -> String {
         md += &format!(
             "| {} | {} | {} | {} | {:.2} | {:.1} |\n",
             p.dataset, p.bits, p.library, p.method, p.cpsnr_db, p.mpix_per_s
+        );
+    }
+    let p = &r.pipeline;
+    md += &format!(
+        "\n## The whole ISP: speed against output quality\n\n![ISP configurations](pipeline.svg)\n\n\
+         {} ({}), PSNR of the 8-bit output against the truth.\n\n\
+         | path | method | denoise | PSNR dB | ms per frame | Mpix/s |\n|---|---|---|---|---|---|\n",
+        p.scene, p.stages
+    );
+    for q in &p.points {
+        md += &format!(
+            "| {} | {} | {} | {:.2} | {:.2} | {:.1} |\n",
+            q.path, q.method, q.denoise, q.psnr_db, q.ms_per_frame, q.mpix_per_s
+        );
+    }
+    for peer in [Some(&p.copy), p.opencv.as_ref()].into_iter().flatten() {
+        md += &format!(
+            "| {} | | | {} | {:.2} | {:.1} |\n",
+            peer.what,
+            peer.psnr_db.map_or("–".into(), |v| format!("{v:.2}")),
+            peer.ms_per_frame,
+            peer.mpix_per_s
         );
     }
     let f = &r.fixed_vs_float;

@@ -227,7 +227,7 @@ fn bench_isp(args: &BenchIspArgs) -> Result<String, Error> {
             runner.best_ms(&mut vec![0u16; w * h * 3], args.repeats)?
         };
         progress.step("copy");
-        let copy_ms = copy_ms(&input.raw.samples, args.repeats);
+        let copy_ms = suite::copy_ms(&input.raw.samples, args.repeats);
         let copy = PeerFigures {
             what: format!(
                 "copy of the raw frame's {} MB",
@@ -238,7 +238,14 @@ fn bench_isp(args: &BenchIspArgs) -> Result<String, Error> {
         };
         progress.step("OpenCV pipeline");
         let (opencv, peers_skipped) = match &p.input {
-            Input::Mosaic(raw) => match opencv_peer(raw, &p.config, threads, args.repeats) {
+            Input::Mosaic(raw) => match suite::opencv_pipeline(
+                &oracle_python(),
+                raw,
+                &p.config,
+                threads,
+                args.repeats,
+                None,
+            ) {
                 Ok(peer_ms) => (
                     Some(PeerFigures {
                         what: "OpenCV: subtract, cvtColor Bayer 16-bit, multiply, transform, \
@@ -318,75 +325,6 @@ fn bench_isp(args: &BenchIspArgs) -> Result<String, Error> {
         );
     }
     Ok(out)
-}
-
-/// The fastest of `repeats` copies of `samples` into another buffer, in milliseconds.
-fn copy_ms(samples: &[u16], repeats: u32) -> f64 {
-    let mut target = vec![0u16; samples.len()];
-    let mut best = f64::INFINITY;
-    for _ in 0..repeats {
-        let start = std::time::Instant::now();
-        target.copy_from_slice(std::hint::black_box(samples));
-        std::hint::black_box(&mut target);
-        best = best.min(start.elapsed().as_secs_f64() * 1e3);
-    }
-    best
-}
-
-/// Runs the OpenCV pipeline (`bench_isp_opencv.py`) on the same frame and settings through
-/// the oracle environment; its best time in milliseconds, or why it could not run.
-fn opencv_peer(
-    raw: &isp_core::frame::RawFrame<'_>,
-    config: &isp_core::pipeline::IspConfig<'_>,
-    threads: usize,
-    repeats: u32,
-) -> Result<f64, String> {
-    let python = oracle_python();
-    if !python.exists() {
-        return Err(format!(
-            "no oracle Python at {} (scripts/test-all.sh creates .venv; or set CAMSIM_ORACLE_PYTHON)",
-            python.display()
-        ));
-    }
-    let mosaic = raw.mosaic();
-    let (w, h) = (mosaic.width(), mosaic.height());
-    let bytes: Vec<u8> = (0..h)
-        .flat_map(|y| (0..w).map(move |x| (x, y)))
-        .flat_map(|(x, y)| mosaic.get(x, y).unwrap_or(0).to_le_bytes())
-        .collect();
-    let frame = std::env::temp_dir().join(format!("camsim-bench-isp-{}.u16", std::process::id()));
-    std::fs::write(&frame, &bytes).map_err(|e| format!("writing {}: {e}", frame.display()))?;
-    let pattern = format!("{:?}", mosaic.pattern()).to_uppercase();
-    let request = serde_json::json!({
-        "frame": frame.display().to_string(),
-        "width": w,
-        "height": h,
-        "pattern": pattern,
-        "black": raw.black_level()[0],
-        "white": raw.white_level(),
-        "wb": config.wb_gains.map(|g| g * config.gain),
-        "ccm": config.ccm,
-        "sharpen": config.sharpen,
-        "threads": threads,
-        "repeats": repeats,
-    });
-    let output = std::process::Command::new(&python)
-        .arg("-c")
-        .arg(include_str!("bench_isp_opencv.py"))
-        .arg(request.to_string())
-        .output();
-    let _ = std::fs::remove_file(&frame);
-    let output = output.map_err(|e| format!("running {}: {e}", python.display()))?;
-    if !output.status.success() {
-        let stderr = String::from_utf8_lossy(&output.stderr);
-        let last = stderr.lines().last().unwrap_or("no message");
-        return Err(format!("the OpenCV script failed: {last}"));
-    }
-    let reply: serde_json::Value = serde_json::from_slice(&output.stdout)
-        .map_err(|e| format!("the OpenCV script's reply: {e}"))?;
-    reply["ms_per_frame"]
-        .as_f64()
-        .ok_or_else(|| "the OpenCV script gave no time".into())
 }
 
 /// The oracle environment's Python: $CAMSIM_ORACLE_PYTHON, else .venv/bin/python.

@@ -2,9 +2,10 @@
 the same run. Embedded in camsim and run with the oracle environment's Python.
 
 argv[1]: a JSON object {frame, width, height, pattern, black, white, wb, ccm, sharpen, threads,
-repeats}
-where frame is a file of width * height little-endian uint16 raw samples. Prints one JSON
-object {ms_per_frame, stages}.
+repeats, output}
+where frame is a file of width * height little-endian uint16 raw samples, and output (optional)
+a file to write the last run's 8-bit RGB image into, row by row. Prints one JSON object
+{ms_per_frame, stages}.
 
 Stages: black level (cv2.subtract, saturating), Bayer bilinear demosaic at 16 bits
 (cv2.cvtColor), white balance and normalisation as one per-channel scale to float32
@@ -54,8 +55,10 @@ def main():
     best = float("inf")
     for _ in range(a["repeats"]):
         t = time.perf_counter()
-        run()
+        image = run()
         best = min(best, time.perf_counter() - t)
+    if a.get("output"):
+        np.ascontiguousarray(image).tofile(a["output"])
     print(json.dumps({
         "ms_per_frame": best * 1e3,
         "stages": "cv2.subtract, cv2.cvtColor (Bayer, 16-bit), cv2.multiply, cv2.transform, cv2.convertScaleAbs, cv2.LUT"
