@@ -87,6 +87,24 @@ fn quick_bench_writes_the_json_the_charts_and_the_summary() {
         );
     }
 
+    // Three cameras under six illuminants, every patch, in-sample and held out.
+    let calibration = &results.calibration;
+    assert_eq!(calibration.patches.len(), 24);
+    assert_eq!(calibration.fits.len(), 3 * 6);
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    for f in &calibration.fits {
+        for v in [
+            &f.matrix,
+            &f.matrix_held_out,
+            &f.root_polynomial,
+            &f.root_polynomial_held_out,
+        ] {
+            assert_eq!(v.len(), 24);
+            assert!(v.iter().all(|e| e.is_finite() && *e >= 0.0), "{f:?}");
+        }
+        assert!(mean(&f.matrix_held_out) >= mean(&f.matrix), "{f:?}");
+    }
+
     let f = &results.fixed_vs_float;
     assert_eq!(f.images, 4);
     assert_eq!(f.agreement.len(), 3);
@@ -157,6 +175,14 @@ fn quick_bench_writes_the_json_the_charts_and_the_summary() {
                 "PSNR of the 8-bit output against the truth (dB)",
                 "directional, fixed path",
                 "copy of the raw frame",
+            ][..],
+        ),
+        (
+            "calibration.svg",
+            &[
+                "mean CIE 2000 error",
+                "root-polynomial, held out",
+                "sigma-sdmerill",
             ][..],
         ),
         (

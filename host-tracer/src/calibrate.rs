@@ -42,6 +42,11 @@ pub struct Calibrated {
     pub delta_e_matrix: Vec<f64>,
     /// Per-patch CIE 2000 error of the root-polynomial fit.
     pub delta_e_root_polynomial: Vec<f64>,
+    /// Per-patch CIE 2000 error of the 3x3 fit made without that patch (leave-one-out: how
+    /// the matrix does on a colour it was not fitted to).
+    pub delta_e_matrix_held_out: Vec<f64>,
+    /// The same for the root-polynomial fit.
+    pub delta_e_root_polynomial_held_out: Vec<f64>,
     /// The 24 patches' camera values and reference XYZ.
     pub patches: Vec<([f64; 3], [f64; 3])>,
     /// The illuminant's colour in camera RGB (green 1): the neutral a white balance aims for.
@@ -145,11 +150,35 @@ pub fn calibrate(camera: &str, illuminant: &str) -> Result<Calibrated> {
         delta_e_matrix.push(colour::delta_e_2000(lab(fitted)?, lab(*r)?));
     }
     let root = fit_root_polynomial(&camera_values, &reference)?;
+    let apply_root = |m: &[[f64; 6]; 3], c: [f64; 3]| -> [f64; 3] {
+        let terms = root_terms(c);
+        std::array::from_fn(|k| (0..6).map(|j| m[k][j] * terms[j]).sum())
+    };
     let mut delta_e_root_polynomial = Vec::new();
     for (c, r) in camera_values.iter().zip(&reference) {
-        let terms = root_terms(*c);
-        let fitted: [f64; 3] = std::array::from_fn(|k| (0..6).map(|j| root[k][j] * terms[j]).sum());
-        delta_e_root_polynomial.push(colour::delta_e_2000(lab(fitted)?, lab(*r)?));
+        delta_e_root_polynomial.push(colour::delta_e_2000(lab(apply_root(&root, *c))?, lab(*r)?));
+    }
+    // Leave one out: each patch scored by the fits to the other 23.
+    let (mut delta_e_matrix_held_out, mut delta_e_root_polynomial_held_out) =
+        (Vec::new(), Vec::new());
+    for held in 0..camera_values.len() {
+        let others = |v: &[[f64; 3]]| -> Vec<[f64; 3]> {
+            v.iter()
+                .enumerate()
+                .filter(|(i, _)| *i != held)
+                .map(|(_, x)| *x)
+                .collect()
+        };
+        let (c, r) = (others(&camera_values), others(&reference));
+        let (camera, truth) = (camera_values[held], lab(reference[held])?);
+        let matrix = fit(&c, &r).map_err(isp("3x3 fit"))?;
+        delta_e_matrix_held_out.push(colour::delta_e_2000(
+            lab(colour::mat3_mul_vec(&matrix, camera))?,
+            truth,
+        ));
+        let root = fit_root_polynomial(&c, &r)?;
+        delta_e_root_polynomial_held_out
+            .push(colour::delta_e_2000(lab(apply_root(&root, camera))?, truth));
     }
     let cct_k = colour::xy_to_cct_mccamy(colour::xyz_to_xy(white_xyz).map_err(isp("xy"))?)
         .map_err(isp("CCT"))?;
@@ -159,6 +188,8 @@ pub fn calibrate(camera: &str, illuminant: &str) -> Result<Calibrated> {
         camera_to_xyz,
         delta_e_matrix,
         delta_e_root_polynomial,
+        delta_e_matrix_held_out,
+        delta_e_root_polynomial_held_out,
         patches,
         neutral,
     })

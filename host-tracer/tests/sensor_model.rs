@@ -93,3 +93,30 @@ fn nikon_5100_calibration_under_d65() {
     );
     assert!((a.cct_k - 2856.0).abs() < 30.0, "{}", a.cct_k);
 }
+
+/// Leave-one-out scores each patch with fits to the other 23: never better on average than
+/// the fit that saw it, and nearly exact for a camera whose response is the CIE observer
+/// itself (any 23 patches determine its matrix; the ADC's quantisation is what remains).
+#[test]
+fn held_out_patch_errors() {
+    let c = calibrate("nikon-5100", "D65").unwrap();
+    for (fitted, held_out) in [
+        (&c.delta_e_matrix, &c.delta_e_matrix_held_out),
+        (
+            &c.delta_e_root_polynomial,
+            &c.delta_e_root_polynomial_held_out,
+        ),
+    ] {
+        assert_eq!(held_out.len(), 24);
+        let (fitted, held_out) = (mean_max(fitted).0, mean_max(held_out).0);
+        println!("in-sample {fitted:.3}, held out {held_out:.3}");
+        assert!(
+            held_out >= fitted && held_out < 3.0 * fitted + 0.5,
+            "{held_out} vs {fitted}"
+        );
+    }
+    let ideal = calibrate("cie1931", "D65").unwrap();
+    let worst = mean_max(&ideal.delta_e_matrix_held_out).1;
+    println!("cie1931 held out: worst {worst:.3}");
+    assert!(worst < 0.5, "the observer's own matrix, held out: {worst}");
+}

@@ -654,3 +654,158 @@ fn draw_pipeline(r: &SuiteResults, path: &Path) -> Drawn {
     root.present()?;
     Ok(())
 }
+
+/// Chart 8: colour calibration error. Top: each camera's mean CIE 2000 error per illuminant
+/// for the 3x3 and root-polynomial fits, in-sample and held out; bottom: each camera's error
+/// per patch under D65.
+pub fn calibration(r: &SuiteResults, path: &Path) -> Result<(), Error> {
+    draw_calibration(r, path).map_err(failed(path))
+}
+
+fn draw_calibration(r: &SuiteResults, path: &Path) -> Drawn {
+    let c = &r.calibration;
+    let root = SVGBackend::new(path, (1500, 900)).into_drawing_area();
+    let body = figure(
+        &root,
+        "Colour calibration: CIE 2000 error of the fitted camera-to-XYZ mapping (lower is better)",
+        r,
+    )?;
+    let mut cameras: Vec<&str> = Vec::new();
+    let mut illuminants: Vec<&str> = Vec::new();
+    for f in &c.fits {
+        if !cameras.contains(&f.camera.as_str()) {
+            cameras.push(&f.camera);
+        }
+        if !illuminants.contains(&f.illuminant.as_str()) {
+            illuminants.push(&f.illuminant);
+        }
+    }
+    type Errors = fn(&super::CalibrationFit) -> &[f64];
+    let variants: [(&str, Errors); 4] = [
+        ("3x3, in-sample", |f| &f.matrix),
+        ("3x3, held out", |f| &f.matrix_held_out),
+        ("root-polynomial, in-sample", |f| &f.root_polynomial),
+        ("root-polynomial, held out", |f| &f.root_polynomial_held_out),
+    ];
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    let top_max = c
+        .fits
+        .iter()
+        .flat_map(|f| variants.iter().map(move |(_, get)| mean(get(f))))
+        .fold(0.5, f64::max);
+    let (top, bottom) = body.split_vertically(430);
+    let names = illuminants.clone();
+    let label = move |x: &f64| -> String {
+        let i = x.round();
+        if (x - i).abs() < 1e-6 && i >= 0.0 {
+            names
+                .get(i as usize)
+                .map_or(String::new(), |n| n.to_string())
+        } else {
+            String::new()
+        }
+    };
+    for (panel, camera) in top
+        .split_evenly((1, cameras.len().max(1)))
+        .iter()
+        .zip(&cameras)
+    {
+        let mut chart = ChartBuilder::on(panel)
+            .caption(format!("{camera}: mean over the 24 patches"), (FONT, 15))
+            .margin(10)
+            .x_label_area_size(36)
+            .y_label_area_size(50)
+            .build_cartesian_2d(-0.5..(illuminants.len() as f64 - 0.5), 0.0..top_max * 1.3)?;
+        chart
+            .configure_mesh()
+            .disable_x_mesh()
+            .x_labels(2 * illuminants.len() + 1)
+            .x_label_formatter(&label)
+            .x_desc("illuminant")
+            .y_desc("mean CIE 2000 error")
+            .y_label_formatter(&|v| format!("{v:.1}"))
+            .label_style((FONT, 11))
+            .draw()?;
+        let width = 0.8 / variants.len() as f64;
+        for (k, (name, get)) in variants.iter().enumerate() {
+            let colour = PALETTE[k % PALETTE.len()];
+            let bars: Vec<_> = c
+                .fits
+                .iter()
+                .filter(|f| f.camera == *camera)
+                .filter_map(|f| {
+                    let i = illuminants.iter().position(|n| *n == f.illuminant)? as f64;
+                    let x = i - 0.4 + width * k as f64;
+                    Some(Rectangle::new(
+                        [(x, 0.0), (x + width * 0.9, mean(get(f)))],
+                        colour.filled(),
+                    ))
+                })
+                .collect();
+            chart.draw_series(bars)?.label(*name).legend(move |(x, y)| {
+                Rectangle::new([(x, y - 5), (x + 14, y + 5)], colour.filled())
+            });
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK.mix(0.4))
+            .label_font((FONT, 11))
+            .draw()?;
+    }
+    let patch_max = c
+        .fits
+        .iter()
+        .filter(|f| f.illuminant == "D65")
+        .flat_map(|f| {
+            variants
+                .iter()
+                .flat_map(move |(_, get)| get(f).iter().copied())
+        })
+        .fold(0.5, f64::max);
+    for (panel, camera) in bottom
+        .split_evenly((1, cameras.len().max(1)))
+        .iter()
+        .zip(&cameras)
+    {
+        let Some(fit) = c
+            .fits
+            .iter()
+            .find(|f| f.camera == *camera && f.illuminant == "D65")
+        else {
+            continue;
+        };
+        let mut chart = ChartBuilder::on(panel)
+            .caption(format!("{camera} under D65: each patch"), (FONT, 15))
+            .margin(10)
+            .x_label_area_size(36)
+            .y_label_area_size(50)
+            .build_cartesian_2d(0.5..(c.patches.len() as f64 + 0.5), 0.0..patch_max * 1.1)?;
+        chart
+            .configure_mesh()
+            .x_labels(12)
+            .x_label_formatter(&|v| format!("{v:.0}"))
+            .x_desc("ColorChecker patch (1 dark skin ... 19-24 neutrals)")
+            .y_desc("CIE 2000 error")
+            .y_label_formatter(&|v| format!("{v:.1}"))
+            .label_style((FONT, 11))
+            .draw()?;
+        for (k, (_, get)) in variants.iter().enumerate() {
+            let colour = PALETTE[k % PALETTE.len()];
+            let points: Vec<_> = get(fit)
+                .iter()
+                .enumerate()
+                .map(|(i, e)| (i as f64 + 1.0, *e))
+                .collect();
+            chart.draw_series(LineSeries::new(points.clone(), colour.stroke_width(1)))?;
+            chart.draw_series(
+                points
+                    .into_iter()
+                    .map(|p| Circle::new(p, 3, colour.filled())),
+            )?;
+        }
+    }
+    root.present()?;
+    Ok(())
+}

@@ -8,6 +8,7 @@
 //! | [`pipeline`](PipelineSuite) | `pipeline.svg` | the whole ISP's Mpix/s against its output's PSNR on the rendered demo scene, each path, method and denoise strength, with a copy and OpenCV's pipeline |
 //! | [`fixed_vs_float`](FixedFloatSuite) | `fixed_vs_float.svg` | the whole pipeline's 8-bit output, fixed minus float, over the image sets as 12-bit raw; each path's throughput |
 //! | [`depth_of_field`](DofSuite) | `depth_of_field.svg` | the approximation 2u^2Nc/f^2 against the exact near/far limits over subject distance |
+//! | [`calibration`](CalibrationSuite) | `calibration.svg` | CIE 2000 error per ColorChecker patch of the 3x3 and root-polynomial fits, in-sample and held out, for each camera and illuminant |
 //! | [`awb`](AwbSuite) | `awb.svg` | each AWB method's angular error on the demo scene relit by each of the six vendored illuminants, with and without its lamps |
 //!
 //! Everything timed runs on one thread (the AWB suite's renders use every core; nothing
@@ -111,6 +112,8 @@ pub struct SuiteResults {
     pub depth_of_field: DofSuite,
     /// Chart 7.
     pub awb: AwbSuite,
+    /// Chart 8.
+    pub calibration: CalibrationSuite,
     /// Why the peers did not run, if they did not.
     pub peers_skipped: Option<String>,
     /// Seconds the whole run took.
@@ -290,8 +293,34 @@ pub struct PipelineSuite {
     pub opencv: Option<PipelinePeer>,
 }
 
+/// One camera under one illuminant, chart 8.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CalibrationFit {
+    /// Camera response.
+    pub camera: String,
+    /// Illuminant.
+    pub illuminant: String,
+    /// Per-patch CIE 2000 error of the 3x3 matrix fitted to all 24 patches.
+    pub matrix: Vec<f64>,
+    /// Per patch, of the 3x3 matrix fitted to the other 23.
+    pub matrix_held_out: Vec<f64>,
+    /// Per patch, of the root-polynomial fit to all 24.
+    pub root_polynomial: Vec<f64>,
+    /// Per patch, of the root-polynomial fit to the other 23.
+    pub root_polynomial_held_out: Vec<f64>,
+}
+
+/// Chart 8's figures.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CalibrationSuite {
+    /// The ColorChecker patches' names, in order.
+    pub patches: Vec<String>,
+    /// Every camera and illuminant.
+    pub fits: Vec<CalibrationFit>,
+}
+
 /// The files a run writes, in its folder.
-pub const FILES: [&str; 7] = [
+pub const FILES: [&str; 8] = [
     "bench.json",
     "summary.md",
     "demosaic_pareto.svg",
@@ -299,6 +328,7 @@ pub const FILES: [&str; 7] = [
     "fixed_vs_float.svg",
     "depth_of_field.svg",
     "awb.svg",
+    "calibration.svg",
 ];
 
 /// Runs every suite, writes [`FILES`] into `settings.out` and returns the results.
@@ -313,6 +343,7 @@ pub fn run(settings: &SuiteSettings, progress: ProgressFn<'_>) -> Result<SuiteRe
     progress("depth of field");
     let depth_of_field = dof_suite()?;
     let awb = awb_suite(settings, progress)?;
+    let calibration = calibration_suite(progress)?;
     let results = SuiteResults {
         date: today_utc(),
         machine: Machine::this(),
@@ -323,6 +354,7 @@ pub fn run(settings: &SuiteSettings, progress: ProgressFn<'_>) -> Result<SuiteRe
         fixed_vs_float,
         depth_of_field,
         awb,
+        calibration,
         peers_skipped,
         seconds: started.elapsed().as_secs_f64(),
     };
@@ -350,6 +382,7 @@ pub fn write_all(
     charts::fixed_vs_float(results, &out.join("fixed_vs_float.svg"))?;
     charts::depth_of_field(results, &out.join("depth_of_field.svg"))?;
     charts::awb(results, &out.join("awb.svg"))?;
+    charts::calibration(results, &out.join("calibration.svg"))?;
     write("summary.md", &summary(results))
 }
 
@@ -976,6 +1009,30 @@ fn awb_suite(settings: &SuiteSettings, progress: ProgressFn<'_>) -> Result<AwbSu
     })
 }
 
+/// The measured camera responses of the vendored spectra.
+const CAMERAS: [&str; 3] = ["nikon-5100", "canon-eos-5d-mark-ii", "sigma-sdmerill"];
+
+fn calibration_suite(progress: ProgressFn<'_>) -> Result<CalibrationSuite, Error> {
+    use host_tracer::spectra::{Table, COLORCHECKER};
+    let patches = Table::parse(COLORCHECKER)?.names().to_vec();
+    let mut fits = Vec::new();
+    for camera in CAMERAS {
+        for illuminant in ILLUMINANTS {
+            progress(&format!("colour calibration: {camera} under {illuminant}"));
+            let c = host_tracer::calibrate::calibrate(camera, illuminant)?;
+            fits.push(CalibrationFit {
+                camera: camera.into(),
+                illuminant: illuminant.into(),
+                matrix: c.delta_e_matrix,
+                matrix_held_out: c.delta_e_matrix_held_out,
+                root_polynomial: c.delta_e_root_polynomial,
+                root_polynomial_held_out: c.delta_e_root_polynomial_held_out,
+            });
+        }
+    }
+    Ok(CalibrationSuite { patches, fits })
+}
+
 /// Today's date in UTC, `YYYY-MM-DD` (the civil date of the Unix day count; Howard Hinnant's
 /// `civil_from_days`).
 pub fn today_utc() -> String {
@@ -1142,6 +1199,28 @@ pub fn summary(r: &SuiteResults) -> String {
             }
             md += "\n";
         }
+    }
+    md += "\n## Colour calibration: CIE 2000 error per ColorChecker patch\n\n\
+           ![Colour calibration](calibration.svg)\n\n\
+           The chart rendered under each illuminant and captured by each camera (sensor noise off); \
+           fits to all 24 patches (in-sample) and, for each patch, to the other 23 (held out). \
+           Mean / max over the patches:\n\n\
+           | camera | illuminant | 3x3 | 3x3 held out | root-polynomial | root-polynomial held out |\n\
+           |---|---|---|---|---|---|\n";
+    for f in &r.calibration.fits {
+        let cell = |v: &[f64]| {
+            let (mean, max) = isp_core::metrics::mean_max(v);
+            format!("{mean:.2} / {max:.2}")
+        };
+        md += &format!(
+            "| {} | {} | {} | {} | {} | {} |\n",
+            f.camera,
+            f.illuminant,
+            cell(&f.matrix),
+            cell(&f.matrix_held_out),
+            cell(&f.root_polynomial),
+            cell(&f.root_polynomial_held_out)
+        );
     }
     md += &format!(
         "\n## Depth of field: where 2u²Nc/f² breaks down\n\n![Depth of field](depth_of_field.svg)\n\n\
