@@ -105,6 +105,41 @@ fn quick_bench_writes_the_json_the_charts_and_the_summary() {
         assert!(mean(&f.matrix_held_out) >= mean(&f.matrix), "{f:?}");
     }
 
+    // The zone plate ranks the methods as their design says, and noise grows with ISO.
+    let failures = &results.failures;
+    let high = |method: &str, get: fn(&camsim::suite::ZonePlateBand) -> f64| {
+        let bands: Vec<_> = failures
+            .zone_plate_bands
+            .iter()
+            .filter(|b| b.method == method && b.cycles_per_pixel > 0.25)
+            .collect();
+        assert!(bands.len() >= 5, "{method}");
+        bands.iter().map(|b| get(b)).sum::<f64>() / bands.len() as f64
+    };
+    assert!(high("directional", |b| b.cpsnr_db) > high("mhc", |b| b.cpsnr_db));
+    assert!(high("mhc", |b| b.cpsnr_db) > high("bilinear", |b| b.cpsnr_db));
+    assert!(high("nearest", |b| b.false_colour) > high("directional", |b| b.false_colour));
+    for method in ["bilinear", "mhc", "directional"] {
+        let curve: Vec<_> = failures
+            .noise
+            .iter()
+            .filter(|q| q.method == method && q.denoise == 0.0)
+            .map(|q| q.noise_lsb)
+            .collect();
+        assert_eq!(curve.len(), 7);
+        assert!(curve.windows(2).all(|w| w[1] > w[0]), "{method}: {curve:?}");
+        let denoised = failures
+            .noise
+            .iter()
+            .find(|q| q.method == method && q.denoise > 0.0 && q.iso == 100.0)
+            .unwrap();
+        assert!(
+            denoised.noise_lsb < curve[0],
+            "{denoised:?} vs {}",
+            curve[0]
+        );
+    }
+
     let f = &results.fixed_vs_float;
     assert_eq!(f.images, 4);
     assert_eq!(f.agreement.len(), 3);
@@ -175,6 +210,14 @@ fn quick_bench_writes_the_json_the_charts_and_the_summary() {
                 "PSNR of the 8-bit output against the truth (dB)",
                 "directional, fixed path",
                 "copy of the raw frame",
+            ][..],
+        ),
+        (
+            "failures.svg",
+            &[
+                "spatial frequency (cycles per pixel; 0.5 is Nyquist)",
+                "ISO (log)",
+                "directional-fixed",
             ][..],
         ),
         (

@@ -809,3 +809,153 @@ fn draw_calibration(r: &SuiteResults, path: &Path) -> Drawn {
     root.present()?;
     Ok(())
 }
+
+/// Chart 5: where each demosaicing method fails (CPSNR and false colour against the zone
+/// plate's frequency) and how output noise grows with ISO, with and without noise reduction.
+pub fn failures(r: &SuiteResults, path: &Path) -> Result<(), Error> {
+    draw_failures(r, path).map_err(failed(path))
+}
+
+fn draw_failures(r: &SuiteResults, path: &Path) -> Drawn {
+    let f = &r.failures;
+    let root = SVGBackend::new(path, (1500, 620)).into_drawing_area();
+    let body = figure(
+        &root,
+        "Where methods fail: fine detail (zone plate) and noise (ISO)",
+        r,
+    )?;
+    let panels = body.split_evenly((1, 3));
+    let mut methods: Vec<&str> = Vec::new();
+    for b in &f.zone_plate_bands {
+        if !methods.contains(&b.method.as_str()) {
+            methods.push(&b.method);
+        }
+    }
+    let colour_of =
+        |m: &str| PALETTE[methods.iter().position(|x| *x == m).unwrap_or(0) % PALETTE.len()];
+    type Measure = fn(&super::ZonePlateBand) -> f64;
+    let measures: [(&str, &str, Measure); 2] = [
+        ("CPSNR against frequency", "CPSNR (dB)", |b| b.cpsnr_db),
+        (
+            "false colour on the grey pattern",
+            "mean channel spread (8-bit steps)",
+            |b| b.false_colour,
+        ),
+    ];
+    for (panel, (title, axis, get)) in panels.iter().zip(measures) {
+        let (lo, hi) = f
+            .zone_plate_bands
+            .iter()
+            .map(get)
+            .filter(|v| v.is_finite())
+            .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(v), b.max(v)));
+        let lo = if axis.starts_with("CPSNR") {
+            lo - 2.0
+        } else {
+            0.0
+        };
+        let mut chart = ChartBuilder::on(panel)
+            .caption(title, (FONT, 16))
+            .margin(12)
+            .x_label_area_size(42)
+            .y_label_area_size(56)
+            .build_cartesian_2d(0.0..0.5, lo..hi * 1.08 + 0.5)?;
+        chart
+            .configure_mesh()
+            .x_desc("spatial frequency (cycles per pixel; 0.5 is Nyquist)")
+            .y_desc(axis)
+            .x_label_formatter(&|v| format!("{v:.2}"))
+            .y_label_formatter(&|v| format!("{v:.0}"))
+            .label_style((FONT, 11))
+            .draw()?;
+        for m in &methods {
+            let colour = colour_of(m);
+            let line: Vec<_> = f
+                .zone_plate_bands
+                .iter()
+                .filter(|b| b.method == *m)
+                .map(|b| (b.cycles_per_pixel, get(b)))
+                .filter(|p| p.1.is_finite())
+                .collect();
+            chart
+                .draw_series(LineSeries::new(line, colour.stroke_width(2)))?
+                .label(*m)
+                .legend(move |(x, y)| {
+                    PathElement::new([(x, y), (x + 18, y)], colour.stroke_width(2))
+                });
+        }
+        chart
+            .configure_series_labels()
+            .position(if axis.starts_with("CPSNR") {
+                SeriesLabelPosition::UpperRight
+            } else {
+                SeriesLabelPosition::UpperLeft
+            })
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK.mix(0.4))
+            .label_font((FONT, 11))
+            .draw()?;
+    }
+    let worst = f.noise.iter().map(|q| q.noise_lsb).fold(0.5, f64::max);
+    // ISO on a log axis in stops above 100 (plotters' log axis crowds its ticks).
+    let stops = |iso: f64| (iso / 100.0).log2();
+    let top = f.noise.iter().map(|q| stops(q.iso)).fold(1.0, f64::max);
+    let mut chart = ChartBuilder::on(&panels[2])
+        .caption(
+            "output noise against ISO (solid: no NR, dashed: NR 0.03)",
+            (FONT, 16),
+        )
+        .margin(12)
+        .x_label_area_size(42)
+        .y_label_area_size(56)
+        .build_cartesian_2d(-0.3..top + 0.3, 0.0..worst * 1.15)?;
+    chart
+        .configure_mesh()
+        .x_desc("ISO (log)")
+        .y_desc("noise, standard deviation (8-bit steps)")
+        .x_labels(2 * top as usize + 3)
+        .x_label_formatter(&|v| {
+            if (v - v.round()).abs() < 1e-6 {
+                format!("{:.0}", 100.0 * 2f64.powf(v.round()))
+            } else {
+                String::new()
+            }
+        })
+        .y_label_formatter(&|v| format!("{v:.1}"))
+        .label_style((FONT, 11))
+        .draw()?;
+    let mut noisy: Vec<(&str, f32)> = Vec::new();
+    for q in &f.noise {
+        if !noisy.contains(&(q.method.as_str(), q.denoise)) {
+            noisy.push((&q.method, q.denoise));
+        }
+    }
+    for (m, denoise) in noisy {
+        let colour = colour_of(m);
+        let line: Vec<_> = f
+            .noise
+            .iter()
+            .filter(|q| q.method == m && q.denoise == denoise)
+            .map(|q| (stops(q.iso), q.noise_lsb))
+            .collect();
+        if denoise > 0.0 {
+            chart.draw_series(DashedLineSeries::new(line, 6, 4, colour.stroke_width(2)))?;
+        } else {
+            chart
+                .draw_series(LineSeries::new(line, colour.stroke_width(2)))?
+                .label(m)
+                .legend(move |(x, y)| {
+                    PathElement::new([(x, y), (x + 18, y)], colour.stroke_width(2))
+                });
+        }
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK.mix(0.4))
+        .label_font((FONT, 11))
+        .draw()?;
+    root.present()?;
+    Ok(())
+}

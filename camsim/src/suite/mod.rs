@@ -7,6 +7,7 @@
 //! | [`demosaic`](DemosaicSuite) | `demosaic_pareto.svg` | Mpix/s against CPSNR on Kodak and McMaster at 8 and 16 bits: every camsim method, OpenCV's and colour-demosaicing's |
 //! | [`pipeline`](PipelineSuite) | `pipeline.svg` | the whole ISP's Mpix/s against its output's PSNR on the rendered demo scene, each path, method and denoise strength, with a copy and OpenCV's pipeline |
 //! | [`fixed_vs_float`](FixedFloatSuite) | `fixed_vs_float.svg` | the whole pipeline's 8-bit output, fixed minus float, over the image sets as 12-bit raw; each path's throughput |
+//! | [`failures`](FailureSuite) | `failures.svg` | each demosaicing method's CPSNR and false colour against the zone plate's frequency; output noise against ISO, with and without noise reduction |
 //! | [`depth_of_field`](DofSuite) | `depth_of_field.svg` | the approximation 2u^2Nc/f^2 against the exact near/far limits over subject distance |
 //! | [`calibration`](CalibrationSuite) | `calibration.svg` | CIE 2000 error per ColorChecker patch of the 3x3 and root-polynomial fits, in-sample and held out, for each camera and illuminant |
 //! | [`awb`](AwbSuite) | `awb.svg` | each AWB method's angular error on the demo scene relit by each of the six vendored illuminants, with and without its lamps |
@@ -108,6 +109,8 @@ pub struct SuiteResults {
     pub pipeline: PipelineSuite,
     /// Chart 3.
     pub fixed_vs_float: FixedFloatSuite,
+    /// Chart 5.
+    pub failures: FailureSuite,
     /// Chart 6.
     pub depth_of_field: DofSuite,
     /// Chart 7.
@@ -319,13 +322,54 @@ pub struct CalibrationSuite {
     pub fits: Vec<CalibrationFit>,
 }
 
+/// One frequency band of the zone plate, chart 5.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ZonePlateBand {
+    /// The demosaicing method.
+    pub method: String,
+    /// The band's centre, cycles per pixel (0.5 is Nyquist).
+    pub cycles_per_pixel: f64,
+    /// CPSNR over the band's pixels, dB (16-bit).
+    pub cpsnr_db: f64,
+    /// False colour: the mean spread of the output's channels (largest minus smallest) on
+    /// the grey pattern, in 8-bit steps.
+    pub false_colour: f64,
+}
+
+/// Output noise at one ISO, chart 5.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NoisePoint {
+    /// The demosaicing method.
+    pub method: String,
+    /// Denoise strength (0: off).
+    pub denoise: f32,
+    /// ISO.
+    pub iso: f64,
+    /// Standard deviation of the 8-bit output on a flat grey, mean over the channels.
+    pub noise_lsb: f64,
+}
+
+/// Chart 5's figures.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FailureSuite {
+    /// The zone plate.
+    pub zone_plate: String,
+    /// Each method and frequency band.
+    pub zone_plate_bands: Vec<ZonePlateBand>,
+    /// The noise measurement.
+    pub noise_setup: String,
+    /// Each method, denoise strength and ISO.
+    pub noise: Vec<NoisePoint>,
+}
+
 /// The files a run writes, in its folder.
-pub const FILES: [&str; 8] = [
+pub const FILES: [&str; 9] = [
     "bench.json",
     "summary.md",
     "demosaic_pareto.svg",
     "pipeline.svg",
     "fixed_vs_float.svg",
+    "failures.svg",
     "depth_of_field.svg",
     "awb.svg",
     "calibration.svg",
@@ -340,6 +384,7 @@ pub fn run(settings: &SuiteSettings, progress: ProgressFn<'_>) -> Result<SuiteRe
     let demosaic = demosaic_suite(settings, &mut peers_skipped, progress)?;
     let pipeline = pipeline_suite(settings, &mut peers_skipped, progress)?;
     let fixed_vs_float = fixed_float_suite(settings, progress)?;
+    let failures = failure_suite(settings, progress)?;
     progress("depth of field");
     let depth_of_field = dof_suite()?;
     let awb = awb_suite(settings, progress)?;
@@ -352,6 +397,7 @@ pub fn run(settings: &SuiteSettings, progress: ProgressFn<'_>) -> Result<SuiteRe
         demosaic,
         pipeline,
         fixed_vs_float,
+        failures,
         depth_of_field,
         awb,
         calibration,
@@ -380,6 +426,7 @@ pub fn write_all(
     charts::demosaic_pareto(results, &out.join("demosaic_pareto.svg"))?;
     charts::pipeline(results, &out.join("pipeline.svg"))?;
     charts::fixed_vs_float(results, &out.join("fixed_vs_float.svg"))?;
+    charts::failures(results, &out.join("failures.svg"))?;
     charts::depth_of_field(results, &out.join("depth_of_field.svg"))?;
     charts::awb(results, &out.join("awb.svg"))?;
     charts::calibration(results, &out.join("calibration.svg"))?;
@@ -802,6 +849,150 @@ pub fn synthetic_raw() -> Result<(RawInput, &'static str), Error> {
     Ok((input, "synthesised 2592x1968 10-bit RGGB"))
 }
 
+/// Side of the zone plate, pixels.
+const ZONE_PLATE: usize = 512;
+/// Width of its frequency bands, cycles per pixel.
+const BAND: f64 = 0.025;
+/// The ISOs of the noise measurement.
+const ISOS: [f64; 7] = [100.0, 200.0, 400.0, 800.0, 1600.0, 3200.0, 6400.0];
+
+fn failure_suite(
+    settings: &SuiteSettings,
+    progress: ProgressFn<'_>,
+) -> Result<FailureSuite, Error> {
+    use host_tracer::sensor::{capture, LensGeometry, SensorConfig};
+    use isp_core::pipeline::Input;
+
+    // A grey zone plate 0.5 + 0.45 cos(pi k r^2) about the centre: its local frequency is
+    // k r cycles per pixel, 0.5 (Nyquist) at the edges' midpoints. Each band of frequency is
+    // scored on the pixels whose radius gives it, away from the image border.
+    let n = ZONE_PLATE;
+    let k = 0.5 / (n as f64 / 2.0);
+    let centre = n as f64 / 2.0 - 0.5;
+    let radius = |x: usize, y: usize| (x as f64 - centre).hypot(y as f64 - centre);
+    let grey: Vec<u16> = (0..n * n)
+        .map(|i| {
+            let r = radius(i % n, i / n);
+            let v = 0.5 + 0.45 * (std::f64::consts::PI * k * r * r).cos();
+            (v * 65535.0).round() as u16
+        })
+        .collect();
+    let mosaic: Vec<u16> = grey.clone();
+    let bands = (0.5 / BAND).round() as usize;
+    let mut zone_plate_bands = Vec::new();
+    // Every method but the bilinear variant with OpenCV's borders (the same inside).
+    let methods = Demosaic::ALL
+        .into_iter()
+        .filter(|m| *m != Demosaic::BILINEAR_OPENCV);
+    for method in methods {
+        progress(&format!("zone plate: {}", method.name()));
+        let mut out = vec![0u16; 3 * n * n];
+        method.run(&mosaic, n, n, CfaPattern::Rggb, &mut out)?;
+        let mut sums = vec![(0.0f64, 0.0f64, 0usize); bands];
+        for y in 10..n - 10 {
+            for x in 10..n - 10 {
+                let band = (k * radius(x, y) / BAND) as usize;
+                if band >= bands {
+                    continue;
+                }
+                let truth = f64::from(grey[y * n + x]);
+                let px = &out[3 * (y * n + x)..][..3];
+                let error: f64 = px.iter().map(|v| (f64::from(*v) - truth).powi(2)).sum();
+                let spread =
+                    px.iter().max().copied().unwrap_or(0) - px.iter().min().copied().unwrap_or(0);
+                let s = &mut sums[band];
+                s.0 += error;
+                s.1 += f64::from(spread) / 257.0;
+                s.2 += 1;
+            }
+        }
+        for (band, (error, spread, count)) in sums.into_iter().enumerate() {
+            if count == 0 {
+                continue;
+            }
+            let mse = error / (3 * count) as f64;
+            zone_plate_bands.push(ZonePlateBand {
+                method: method.name().into(),
+                cycles_per_pixel: (band as f64 + 0.5) * BAND,
+                cpsnr_db: 10.0 * (65535.0f64 * 65535.0 / mse.max(1e-12)).log10(),
+                false_colour: spread / count as f64,
+            });
+        }
+    }
+
+    // Output noise: a flat grey (camera RGB 0.18, neutral) beside a white strip that the
+    // automatic exposure meters at base ISO; each ISO then shortens the exposure by its
+    // factor, so the raw level stays and the light falls, as a camera's ISO does.
+    let (w, h) = if settings.quick {
+        (128, 96)
+    } else {
+        (256, 192)
+    };
+    let strip = h / 12;
+    let camera_rgb: Vec<f32> = (0..w * h)
+        .flat_map(|i| {
+            let v = if i / w < strip { 1.0 } else { 0.18 };
+            [v; 3]
+        })
+        .collect();
+    let lens = LensGeometry::thin_lens(50.0, 50.0 / 2.8 / 2.0, [36.0, 24.0]);
+    let mut config = SensorConfig {
+        noise: SensorConfig::realistic().noise,
+        ..SensorConfig::ideal()
+    };
+    let base_exposure = capture(&camera_rgb, w, h, lens, &config)?.exposure_s;
+    let methods = [Method::Bilinear, Method::Mhc, Method::Directional];
+    let mut noise = Vec::new();
+    for iso in ISOS {
+        progress(&format!("noise at ISO {iso}"));
+        config.iso = iso;
+        config.exposure_s = Some(base_exposure * 100.0 / iso);
+        let raw = capture(&camera_rgb, w, h, lens, &config)?.raw;
+        let input = Input::Mosaic(raw.frame()?);
+        for method in methods {
+            for denoise in [0.0, 0.03] {
+                let config = IspConfig {
+                    demosaic: method,
+                    denoise,
+                    ..IspConfig::default()
+                };
+                let mut out = vec![0u8; 3 * w * h];
+                Runner::new(&input, &config, true, 8, 1)?.best_ms(&mut out, 1)?;
+                let mut deviation = 0.0;
+                for c in 0..3 {
+                    let values: Vec<f64> = (strip + 8..h - 8)
+                        .flat_map(|y| (8..w - 8).map(move |x| (x, y)))
+                        .map(|(x, y)| f64::from(out[3 * (y * w + x) + c]))
+                        .collect();
+                    let mean = values.iter().sum::<f64>() / values.len() as f64;
+                    let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>()
+                        / values.len() as f64;
+                    deviation += var.sqrt() / 3.0;
+                }
+                noise.push(NoisePoint {
+                    method: method.name().into(),
+                    denoise,
+                    iso,
+                    noise_lsb: deviation,
+                });
+            }
+        }
+    }
+    Ok(FailureSuite {
+        zone_plate: format!(
+            "grey zone plate 0.5 + 0.45 cos(pi k r^2), {n} x {n}, 16-bit RGGB mosaic; bands of \
+             {BAND} cycles per pixel"
+        ),
+        zone_plate_bands,
+        noise_setup: format!(
+            "flat grey (18 % of a metered white) {w} x {h} through the realistic sensor's noise \
+             (no shading, no defects), 12-bit; the fixed-point pipeline with no colour matrix, \
+             8-bit sRGB out"
+        ),
+        noise,
+    })
+}
+
 /// Full-frame circle of confusion, mm.
 const COC_MM: f64 = 0.03;
 /// Chart 6's lenses: focal length (mm) and f-number.
@@ -1221,6 +1412,63 @@ pub fn summary(r: &SuiteResults) -> String {
             cell(&f.root_polynomial),
             cell(&f.root_polynomial_held_out)
         );
+    }
+    let fl = &r.failures;
+    md += &format!(
+        "\n## Where methods fail\n\n![Where methods fail](failures.svg)\n\n\
+         Zone plate: {}. Noise: {}.\n\n| method | CPSNR dB below 0.25 cycles/pixel | \
+         CPSNR dB, 0.25 to 0.5 | false colour, 0.25 to 0.5 (8-bit) |\n|---|---|---|---|\n",
+        fl.zone_plate, fl.noise_setup
+    );
+    let mut zone_methods: Vec<&str> = Vec::new();
+    for b in &fl.zone_plate_bands {
+        if !zone_methods.contains(&b.method.as_str()) {
+            zone_methods.push(&b.method);
+        }
+    }
+    for m in zone_methods {
+        let band = |low: bool| -> Vec<&ZonePlateBand> {
+            fl.zone_plate_bands
+                .iter()
+                .filter(|b| b.method == m && (b.cycles_per_pixel < 0.25) == low)
+                .collect()
+        };
+        let mean = |v: &[&ZonePlateBand], f: fn(&ZonePlateBand) -> f64| {
+            v.iter().map(|b| f(b)).sum::<f64>() / v.len().max(1) as f64
+        };
+        let (low, high) = (band(true), band(false));
+        md += &format!(
+            "| {m} | {:.2} | {:.2} | {:.2} |\n",
+            mean(&low, |b| b.cpsnr_db),
+            mean(&high, |b| b.cpsnr_db),
+            mean(&high, |b| b.false_colour)
+        );
+    }
+    md += "\n| method | denoise |";
+    for iso in ISOS {
+        md += &format!(" ISO {iso} |");
+    }
+    md += "\n|---|---|";
+    md += &"---|".repeat(ISOS.len());
+    md += "\n";
+    let mut seen: Vec<(&str, f32)> = Vec::new();
+    for q in &fl.noise {
+        if seen.contains(&(q.method.as_str(), q.denoise)) {
+            continue;
+        }
+        seen.push((&q.method, q.denoise));
+        md += &format!("| {} | {} |", q.method, q.denoise);
+        for iso in ISOS {
+            match fl
+                .noise
+                .iter()
+                .find(|p| p.method == q.method && p.denoise == q.denoise && p.iso == iso)
+            {
+                Some(p) => md += &format!(" {:.2} |", p.noise_lsb),
+                None => md += " – |",
+            }
+        }
+        md += "\n";
     }
     md += &format!(
         "\n## Depth of field: where 2u²Nc/f² breaks down\n\n![Depth of field](depth_of_field.svg)\n\n\
