@@ -140,6 +140,29 @@ fn quick_bench_writes_the_json_the_charts_and_the_summary() {
         );
     }
 
+    // camsim converges as its samples grow, pinhole and thin lens; with the peers, Mitsuba too.
+    let render = &results.render;
+    let renderers: &[&str] = if results.peers_skipped.is_none() {
+        &["camsim", "Mitsuba 3"]
+    } else {
+        &["camsim"]
+    };
+    for renderer in renderers {
+        for camera in ["pinhole", "thin lens"] {
+            let curve: Vec<_> = render
+                .convergence
+                .iter()
+                .filter(|q| q.renderer == *renderer && q.camera == camera)
+                .collect();
+            assert_eq!(curve.len(), 3, "{renderer} {camera}");
+            assert!(curve.iter().all(|q| q.seconds > 0.0), "{curve:?}");
+            assert!(curve[2].rmse < curve[0].rmse, "{curve:?}");
+        }
+    }
+    assert!(render.features.len() >= 10);
+    assert_eq!(render.features[0].variant, "pinhole");
+    assert_eq!(render.features[0].relative_time, 1.0);
+
     let f = &results.fixed_vs_float;
     assert_eq!(f.images, 4);
     assert_eq!(f.agreement.len(), 3);
@@ -210,6 +233,14 @@ fn quick_bench_writes_the_json_the_charts_and_the_summary() {
                 "PSNR of the 8-bit output against the truth (dB)",
                 "directional, fixed path",
                 "copy of the raw frame",
+            ][..],
+        ),
+        (
+            "render.svg",
+            &[
+                "render time, one thread (s, log)",
+                "camsim, thin lens (dashed)",
+                "everything",
             ][..],
         ),
         (

@@ -959,3 +959,132 @@ fn draw_failures(r: &SuiteResults, path: &Path) -> Drawn {
     root.present()?;
     Ok(())
 }
+
+/// Chart 4: RMSE against wall time for camsim and Mitsuba 3, pinhole and thin lens (log
+/// axes), and each camera feature's time per sample over the pinhole's.
+pub fn render(r: &SuiteResults, path: &Path) -> Result<(), Error> {
+    draw_render(r, path).map_err(failed(path))
+}
+
+fn draw_render(r: &SuiteResults, path: &Path) -> Drawn {
+    let rs = &r.render;
+    let root = SVGBackend::new(path, (1500, 640)).into_drawing_area();
+    let body = figure(
+        &root,
+        "Rendering: error against time on the Cornell box (one thread; down and left is better), and each feature's cost",
+        r,
+    )?;
+    let (left, right) = body.split_horizontally(860);
+    let points = || {
+        rs.convergence
+            .iter()
+            .filter(|q| q.seconds > 0.0 && q.rmse > 0.0)
+    };
+    let (lo_t, hi_t) = points().fold((f64::MAX, f64::MIN), |(a, b), q| {
+        (a.min(q.seconds), b.max(q.seconds))
+    });
+    let (lo_e, hi_e) = points().fold((f64::MAX, f64::MIN), |(a, b), q| {
+        (a.min(q.rmse), b.max(q.rmse))
+    });
+    if lo_t < hi_t && lo_e < hi_e {
+        let mut chart = ChartBuilder::on(&left)
+            .caption(
+                "RMSE against wall time (labels: samples per pixel)",
+                (FONT, 16),
+            )
+            .margin(12)
+            .x_label_area_size(42)
+            .y_label_area_size(64)
+            .build_cartesian_2d(
+                (lo_t / 1.5..hi_t * 1.5).log_scale(),
+                (lo_e / 1.3..hi_e * 1.3).log_scale(),
+            )?;
+        chart
+            .configure_mesh()
+            .x_desc("render time, one thread (s, log)")
+            .y_desc("RMSE against the reference (linear RGB, log)")
+            .x_label_formatter(&|v| tick(*v))
+            .y_label_formatter(&|v| tick(*v))
+            .label_style((FONT, 11))
+            .draw()?;
+        let mut k = 0;
+        for renderer in ["camsim", "Mitsuba 3"] {
+            for camera in ["pinhole", "thin lens"] {
+                let line: Vec<_> = points()
+                    .filter(|q| q.renderer == renderer && q.camera == camera)
+                    .collect();
+                let colour = PALETTE[k % PALETTE.len()];
+                k += 1;
+                if line.is_empty() {
+                    continue;
+                }
+                let xy: Vec<_> = line.iter().map(|q| (q.seconds, q.rmse)).collect();
+                let style = colour.stroke_width(2);
+                if camera == "pinhole" {
+                    chart
+                        .draw_series(LineSeries::new(xy, style))?
+                        .label(format!("{renderer}, {camera}"))
+                        .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], style));
+                } else {
+                    chart
+                        .draw_series(DashedLineSeries::new(xy, 6, 4, style))?
+                        .label(format!("{renderer}, {camera} (dashed)"))
+                        .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], style));
+                }
+                chart.draw_series(line.iter().map(|q| {
+                    EmptyElement::at((q.seconds, q.rmse))
+                        + Circle::new((0, 0), 3, colour.filled())
+                        + Text::new(
+                            q.spp.to_string(),
+                            (4, 2),
+                            (FONT, 10).into_font().color(&colour),
+                        )
+                }))?;
+            }
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK.mix(0.4))
+            .label_font((FONT, 12))
+            .draw()?;
+    }
+    let slowest = rs
+        .features
+        .iter()
+        .map(|f| f.relative_time)
+        .fold(1.0, f64::max);
+    let rows = rs.features.len().max(1) as f64;
+    let mut chart = ChartBuilder::on(&right)
+        .caption(
+            "each feature alone: time per sample over the pinhole's",
+            (FONT, 16),
+        )
+        .margin(12)
+        .x_label_area_size(42)
+        .y_label_area_size(10)
+        .build_cartesian_2d(0.0..slowest * 1.6, 0.0..rows)?;
+    chart
+        .configure_mesh()
+        .disable_y_mesh()
+        .y_labels(0)
+        .x_desc("time per sample (pinhole = 1)")
+        .x_label_formatter(&|v| format!("{v:.1}"))
+        .label_style((FONT, 11))
+        .draw()?;
+    for (i, f) in rs.features.iter().enumerate() {
+        let y = rows - i as f64 - 1.0;
+        chart.draw_series([Rectangle::new(
+            [(0.0, y + 0.15), (f.relative_time, y + 0.85)],
+            PALETTE[5].filled(),
+        )])?;
+        chart.draw_series([Text::new(
+            format!("{}: {:.2}x", f.variant, f.relative_time),
+            (f.relative_time + slowest * 0.02, y + 0.62),
+            (FONT, 11),
+        )])?;
+    }
+    root.present()?;
+    Ok(())
+}

@@ -7,6 +7,7 @@
 //! | [`demosaic`](DemosaicSuite) | `demosaic_pareto.svg` | Mpix/s against CPSNR on Kodak and McMaster at 8 and 16 bits: every camsim method, OpenCV's and colour-demosaicing's |
 //! | [`pipeline`](PipelineSuite) | `pipeline.svg` | the whole ISP's Mpix/s against its output's PSNR on the rendered demo scene, each path, method and denoise strength, with a copy and OpenCV's pipeline |
 //! | [`fixed_vs_float`](FixedFloatSuite) | `fixed_vs_float.svg` | the whole pipeline's 8-bit output, fixed minus float, over the image sets as 12-bit raw; each path's throughput |
+//! | [`render`](RenderSuite) | `render.svg` | RMSE against wall time for camsim and Mitsuba 3 on the Cornell box, pinhole and thin lens; each camera feature's cost alone |
 //! | [`failures`](FailureSuite) | `failures.svg` | each demosaicing method's CPSNR and false colour against the zone plate's frequency; output noise against ISO, with and without noise reduction |
 //! | [`depth_of_field`](DofSuite) | `depth_of_field.svg` | the approximation 2u^2Nc/f^2 against the exact near/far limits over subject distance |
 //! | [`calibration`](CalibrationSuite) | `calibration.svg` | CIE 2000 error per ColorChecker patch of the 3x3 and root-polynomial fits, in-sample and held out, for each camera and illuminant |
@@ -109,6 +110,8 @@ pub struct SuiteResults {
     pub pipeline: PipelineSuite,
     /// Chart 3.
     pub fixed_vs_float: FixedFloatSuite,
+    /// Chart 4.
+    pub render: RenderSuite,
     /// Chart 5.
     pub failures: FailureSuite,
     /// Chart 6.
@@ -362,13 +365,57 @@ pub struct FailureSuite {
     pub noise: Vec<NoisePoint>,
 }
 
+/// One render of chart 4's convergence.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ConvergencePoint {
+    /// `camsim` or `Mitsuba 3`.
+    pub renderer: String,
+    /// `pinhole` or `thin lens`.
+    pub camera: String,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Wall time of the render (one thread), s.
+    pub seconds: f64,
+    /// RMSE of its linear RGB against the same renderer's high-sample reference.
+    pub rmse: f64,
+}
+
+/// One camera feature's cost, chart 4 (`camsim bench render`'s variants).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FeatureCost {
+    /// The variant.
+    pub variant: String,
+    /// What it turns on.
+    pub what: String,
+    /// Camera samples per second, millions.
+    pub msamples_per_s: f64,
+    /// Time per sample over the pinhole's.
+    pub relative_time: f64,
+}
+
+/// Chart 4's figures.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RenderSuite {
+    /// The convergence renders.
+    pub convergence_setup: String,
+    /// Every renderer, camera and sample count.
+    pub convergence: Vec<ConvergencePoint>,
+    /// Mitsuba's version, if it ran.
+    pub mitsuba: Option<String>,
+    /// The feature renders.
+    pub feature_setup: String,
+    /// Every feature alone.
+    pub features: Vec<FeatureCost>,
+}
+
 /// The files a run writes, in its folder.
-pub const FILES: [&str; 9] = [
+pub const FILES: [&str; 10] = [
     "bench.json",
     "summary.md",
     "demosaic_pareto.svg",
     "pipeline.svg",
     "fixed_vs_float.svg",
+    "render.svg",
     "failures.svg",
     "depth_of_field.svg",
     "awb.svg",
@@ -384,6 +431,7 @@ pub fn run(settings: &SuiteSettings, progress: ProgressFn<'_>) -> Result<SuiteRe
     let demosaic = demosaic_suite(settings, &mut peers_skipped, progress)?;
     let pipeline = pipeline_suite(settings, &mut peers_skipped, progress)?;
     let fixed_vs_float = fixed_float_suite(settings, progress)?;
+    let render = render_suite(settings, &mut peers_skipped, progress)?;
     let failures = failure_suite(settings, progress)?;
     progress("depth of field");
     let depth_of_field = dof_suite()?;
@@ -397,6 +445,7 @@ pub fn run(settings: &SuiteSettings, progress: ProgressFn<'_>) -> Result<SuiteRe
         demosaic,
         pipeline,
         fixed_vs_float,
+        render,
         failures,
         depth_of_field,
         awb,
@@ -426,6 +475,7 @@ pub fn write_all(
     charts::demosaic_pareto(results, &out.join("demosaic_pareto.svg"))?;
     charts::pipeline(results, &out.join("pipeline.svg"))?;
     charts::fixed_vs_float(results, &out.join("fixed_vs_float.svg"))?;
+    charts::render(results, &out.join("render.svg"))?;
     charts::failures(results, &out.join("failures.svg"))?;
     charts::depth_of_field(results, &out.join("depth_of_field.svg"))?;
     charts::awb(results, &out.join("awb.svg"))?;
@@ -847,6 +897,138 @@ pub fn synthetic_raw() -> Result<(RawInput, &'static str), Error> {
     input.defaults.black_level = Some(vec![64]);
     input.defaults.white_level = Some(1023);
     Ok((input, "synthesised 2592x1968 10-bit RGGB"))
+}
+
+/// The thin lens of chart 4 (scene units, as `scripts/bench_tracer.py`): aperture radius and
+/// focus distance.
+const THIN_LENS: (f32, f32) = (0.1, 3.9);
+
+fn render_suite(
+    settings: &SuiteSettings,
+    peers_skipped: &mut Option<String>,
+    progress: ProgressFn<'_>,
+) -> Result<RenderSuite, Error> {
+    use host_tracer::render_bench::{bench, BenchSettings};
+    use host_tracer::tracer::render::{render, RenderSettings};
+    use host_tracer::tracer::scene_file;
+
+    let cornell = scene_file::load("cornell-box")?;
+    let (size, spps, reference_spp): (u32, &[u32], u32) = if settings.quick {
+        (64, &[1, 4, 16], 256)
+    } else {
+        (128, &[1, 2, 4, 8, 16, 32, 64, 128, 256], 4096)
+    };
+    let cameras = [("pinhole", 0.0f32), ("thin lens", THIN_LENS.0)];
+    let mut convergence = Vec::new();
+    let mut references = Vec::new();
+    for (camera, aperture) in cameras {
+        let mut scene = cornell.clone();
+        if aperture > 0.0 {
+            scene.camera.aperture_radius_mm = aperture / scene.camera.units_per_mm;
+            scene.camera.focus_distance = Some(THIN_LENS.1);
+        }
+        let mut render_settings = RenderSettings::for_scene(&scene);
+        render_settings.width = size;
+        render_settings.height = size;
+        progress(&format!("render: {camera} reference, {reference_spp} spp"));
+        render_settings.spp = reference_spp;
+        render_settings.threads = 0;
+        render_settings.seed = 7;
+        let reference = render(&scene, &render_settings)?.rgb;
+        render_settings.threads = 1;
+        render_settings.seed = 1;
+        for &spp in spps {
+            progress(&format!("render: camsim {camera}, {spp} spp"));
+            render_settings.spp = spp;
+            let image = render(&scene, &render_settings)?;
+            let squared: f64 = image
+                .rgb
+                .iter()
+                .zip(&reference)
+                .map(|(a, b)| f64::from(a - b).powi(2))
+                .sum();
+            convergence.push(ConvergencePoint {
+                renderer: "camsim".into(),
+                camera: camera.into(),
+                spp,
+                seconds: image.elapsed.as_secs_f64(),
+                rmse: (squared / reference.len() as f64).sqrt(),
+            });
+        }
+        references.push((camera, aperture));
+    }
+    progress("render: Mitsuba 3");
+    let request = serde_json::json!({
+        "size": size,
+        "depth": cornell.max_depth,
+        "spps": spps,
+        "reference_spp": reference_spp,
+        "cameras": references
+            .iter()
+            .map(|(camera, aperture)| {
+                serde_json::json!({"name": camera, "aperture": aperture, "focus": THIN_LENS.1})
+            })
+            .collect::<Vec<_>>(),
+    });
+    let reply = run_python(settings, include_str!("render_mitsuba.py"), &request);
+    let mut mitsuba = None;
+    match reply {
+        Ok(reply) => {
+            #[derive(Deserialize)]
+            struct Reply {
+                rows: Vec<ConvergencePoint>,
+                version: String,
+            }
+            let reply: Reply = serde_json::from_value(reply)
+                .map_err(|e| Error::Message(format!("the Mitsuba peer's reply: {e}")))?;
+            convergence.extend(reply.rows);
+            mitsuba = Some(reply.version);
+        }
+        Err(why) if !settings.require_peers => {
+            peers_skipped.get_or_insert(why);
+        }
+        Err(why) => {
+            return Err(Error::Message(format!(
+                "the Mitsuba peer did not run: {why}"
+            )))
+        }
+    }
+
+    let bench_settings = BenchSettings {
+        width: if settings.quick { 64 } else { 256 },
+        height: if settings.quick { 64 } else { 256 },
+        spp: if settings.quick { 4 } else { 16 },
+        seed: 0,
+        threads: 1,
+        repeats: if settings.quick { 1 } else { 3 },
+        aperture_radius: THIN_LENS.0,
+    };
+    let rows = bench(&cornell, &bench_settings, &mut |variant| {
+        progress(&format!("render: feature {variant}"))
+    })?;
+    Ok(RenderSuite {
+        convergence_setup: format!(
+            "cornell-box (Mitsuba 3's), {size} x {size}, max depth {}, one thread, seed 1; thin \
+             lens: aperture radius {} and focus {} scene units; RMSE of linear RGB against the same \
+             renderer at {reference_spp} spp (every core, seed 7)",
+            cornell.max_depth, THIN_LENS.0, THIN_LENS.1
+        ),
+        convergence,
+        mitsuba,
+        feature_setup: format!(
+            "cornell-box, {} x {}, {} spp, one thread, best of {}; time per sample over the pinhole's",
+            bench_settings.width, bench_settings.height, bench_settings.spp, bench_settings.repeats
+        ),
+        features: rows
+            .into_iter()
+            .map(|r| FeatureCost {
+                variant: r.variant.into(),
+                what: r.what.into(),
+                msamples_per_s: r.msamples_per_s,
+                relative_time: r.relative_time,
+            })
+            .collect(),
+    })
 }
 
 /// Side of the zone plate, pixels.
@@ -1411,6 +1593,29 @@ pub fn summary(r: &SuiteResults) -> String {
             cell(&f.matrix_held_out),
             cell(&f.root_polynomial),
             cell(&f.root_polynomial_held_out)
+        );
+    }
+    let rs = &r.render;
+    md += &format!(
+        "\n## Rendering: convergence and what each camera feature costs\n\n![Rendering](render.svg)\n\n\
+         Convergence: {}{}.\n\n| renderer | camera | spp | seconds | RMSE |\n|---|---|---|---|---|\n",
+        rs.convergence_setup,
+        rs.mitsuba.as_ref().map_or(String::new(), |v| format!("; Mitsuba {v} scalar_rgb"))
+    );
+    for q in &rs.convergence {
+        md += &format!(
+            "| {} | {} | {} | {:.4} | {:.5} |\n",
+            q.renderer, q.camera, q.spp, q.seconds, q.rmse
+        );
+    }
+    md += &format!(
+        "\nFeatures: {}.\n\n| variant | Msamples/s | time x | what |\n|---|---|---|---|\n",
+        rs.feature_setup
+    );
+    for f in &rs.features {
+        md += &format!(
+            "| {} | {:.2} | {:.2} | {} |\n",
+            f.variant, f.msamples_per_s, f.relative_time, f.what
         );
     }
     let fl = &r.failures;
