@@ -299,6 +299,38 @@ fn quick_bench_writes_the_json_the_charts_and_the_summary() {
         let redrawn = std::fs::read_to_string(again.join(name)).unwrap();
         assert!(first == redrawn, "{name} differs when redrawn");
     }
+
+    // --readme fills the generated blocks from the same JSON, leaves the rest, and is stable.
+    let readme = again.join("README.md");
+    let before = "# title\n\ntyped text\n\n<!-- camsim bench: demosaic -->\nstale table\n<!-- end camsim bench -->\n\nmore text\n<!-- camsim bench: provenance -->\n<!-- end camsim bench -->\n";
+    std::fs::write(&readme, before).unwrap();
+    let readme_arg = readme.display().to_string();
+    let redraw = [
+        "bench",
+        "--from-json",
+        &json_arg,
+        "--out",
+        &again_arg,
+        "--readme",
+        &readme_arg,
+    ];
+    let (ok, _, stderr) = camsim(&redraw);
+    assert!(ok, "{stderr}");
+    let filled = std::fs::read_to_string(&readme).unwrap();
+    assert!(!filled.contains("stale table"), "{filled}");
+    assert!(filled.starts_with("# title\n\ntyped text\n") && filled.contains("\n\nmore text\n"));
+    assert!(filled.contains("| camsim | directional |") && filled.contains(&results.date));
+    let (ok, _, _) = camsim(&redraw);
+    assert!(ok);
+    assert_eq!(
+        std::fs::read_to_string(&readme).unwrap(),
+        filled,
+        "a second fill changes nothing"
+    );
+    std::fs::write(&readme, "<!-- camsim bench: pipeline -->\nno end").unwrap();
+    let (ok, _, stderr) = camsim(&redraw);
+    assert!(!ok && stderr.contains("end camsim bench"), "{stderr}");
+
     let _ = std::fs::remove_dir_all(out);
     let _ = std::fs::remove_dir_all(again);
 }

@@ -1443,6 +1443,102 @@ fn caption(r: &SuiteResults) -> String {
     )
 }
 
+/// The README's generated blocks: name and Markdown. A README holds each between
+/// `<!-- camsim bench: NAME -->` and `<!-- end camsim bench -->`; [`update_readme`] fills them.
+pub fn readme_blocks(r: &SuiteResults) -> Vec<(&'static str, String)> {
+    let provenance = format!(
+        "Measured by `{}` on {}, {}{}; every figure is in [docs/bench/bench.json](docs/bench/bench.json) \
+         and [docs/bench/summary.md](docs/bench/summary.md).",
+        r.command,
+        r.machine.describe(),
+        r.date,
+        if r.quick { " (a quick smoke run)" } else { "" }
+    );
+    let point = |set: &str, library: &str, method: &str| {
+        r.demosaic.points.iter().find(|p| {
+            p.dataset == set && p.bits == 16 && p.library == library && p.method == method
+        })
+    };
+    let opencv = point("kodak", "OpenCV", "bilinear").map(|p| p.mpix_per_s);
+    let mut demosaic = format!(
+        "| library | method | Kodak dB | McMaster dB | Mpix/s | against OpenCV bilinear{} |\n|---|---|---|---|---|---|\n",
+        opencv.map_or(String::new(), |s| format!(" ({s:.0} Mpix/s)"))
+    );
+    let mut seen: Vec<(&str, &str)> = Vec::new();
+    for p in r.demosaic.points.iter().filter(|p| p.bits == 16) {
+        if seen.contains(&(p.library.as_str(), p.method.as_str())) {
+            continue;
+        }
+        seen.push((&p.library, &p.method));
+        let kodak = point("kodak", &p.library, &p.method);
+        let mcmaster = point("mcmaster", &p.library, &p.method);
+        let db =
+            |q: Option<&DemosaicPoint>| q.map_or("–".into(), |q| format!("{:.2}", q.cpsnr_db));
+        let speed = kodak.map(|q| q.mpix_per_s);
+        demosaic += &format!(
+            "| {} | {} | {} | {} | {} | {} |\n",
+            p.library,
+            p.method,
+            db(kodak),
+            db(mcmaster),
+            speed.map_or("–".into(), |s| format!("{s:.1}")),
+            match (speed, opencv) {
+                (Some(s), Some(o)) => format!("{:.2}x", s / o),
+                _ => "–".into(),
+            }
+        );
+    }
+    demosaic += &format!(
+        "\n16-bit mosaics; CPSNR over the image less 10 pixels, averaged over the set; Mpix/s on one \
+         thread on a {0} x {0} mosaic tiled from the first Kodak image. {provenance}\n",
+        r.demosaic.tile
+    );
+    let p = &r.pipeline;
+    let mut pipeline =
+        "| path | method | denoise | PSNR dB | Mpix/s |\n|---|---|---|---|---|\n".to_string();
+    for q in &p.points {
+        pipeline += &format!(
+            "| {} | {} | {} | {:.2} | {:.1} |\n",
+            q.path, q.method, q.denoise, q.psnr_db, q.mpix_per_s
+        );
+    }
+    if let Some(o) = &p.opencv {
+        pipeline += &format!(
+            "| OpenCV | bilinear (no defects, shading or denoise) | – | {} | {:.1} |\n",
+            o.psnr_db.map_or("–".into(), |v| format!("{v:.2}")),
+            o.mpix_per_s
+        );
+    }
+    pipeline += &format!("\n{}; {}. {provenance}\n", p.scene, p.stages);
+    vec![
+        ("provenance", provenance + "\n"),
+        ("demosaic", demosaic),
+        ("pipeline", pipeline),
+    ]
+}
+
+/// `readme` with each generated block (see [`readme_blocks`]) replaced by this run's; an
+/// error names a block whose end marker is missing.
+pub fn update_readme(readme: &str, r: &SuiteResults) -> Result<String, Error> {
+    const END: &str = "<!-- end camsim bench -->";
+    let mut text = readme.to_string();
+    for (name, block) in readme_blocks(r) {
+        let start = format!("<!-- camsim bench: {name} -->");
+        let mut from = 0;
+        while let Some(at) = text[from..].find(&start) {
+            let body = from + at + start.len();
+            let Some(end) = text[body..].find(END) else {
+                return Err(Error::Message(format!(
+                    "the README's block {start} has no {END} after it"
+                )));
+            };
+            text.replace_range(body..body + end, &format!("\n{block}"));
+            from = body + block.len() + 1 + END.len();
+        }
+    }
+    Ok(text)
+}
+
 /// `summary.md`: the charts and every figure in tables.
 pub fn summary(r: &SuiteResults) -> String {
     let mut md = format!(

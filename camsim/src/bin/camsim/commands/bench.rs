@@ -37,6 +37,10 @@ pub struct BenchArgs {
     /// (into --out).
     #[arg(long, value_name = "BENCH_JSON", conflicts_with_all = ["quick", "data"])]
     pub from_json: Option<PathBuf>,
+    /// Also rewrite this README's generated tables (between `<!-- camsim bench: NAME -->`
+    /// and `<!-- end camsim bench -->`) from the results.
+    #[arg(long, value_name = "README")]
+    pub readme: Option<PathBuf>,
 }
 
 #[derive(Subcommand)]
@@ -343,6 +347,7 @@ fn run_suites(args: &BenchArgs) -> Result<String, Error> {
         std::fs::create_dir_all(&args.out)
             .map_err(|e| raw_formats::FormatError::io(&args.out, e))?;
         suite::write_all(&results, &args.out, &mut |_| {})?;
+        update_readme(args, &results)?;
         return Ok(format!(
             "camsim bench: charts of the {} run of {} drawn into {}\n",
             results.date,
@@ -374,6 +379,7 @@ fn run_suites(args: &BenchArgs) -> Result<String, Error> {
     if let Some(why) = &results.peers_skipped {
         eprintln!("note: the peers were skipped: {why}");
     }
+    update_readme(args, &results)?;
     let mut out = format!(
         "camsim bench: {:.0} s on {}; in {}:\n",
         results.seconds,
@@ -384,6 +390,17 @@ fn run_suites(args: &BenchArgs) -> Result<String, Error> {
         out += &format!("  {}\n", args.out.join(name).display());
     }
     Ok(out)
+}
+
+/// `--readme`: the README's generated tables from `results`.
+fn update_readme(args: &BenchArgs, results: &suite::SuiteResults) -> Result<(), Error> {
+    let Some(path) = &args.readme else {
+        return Ok(());
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| raw_formats::FormatError::io(path, e))?;
+    let updated = suite::update_readme(&text, results).map_err(|e| e.in_file(path))?;
+    std::fs::write(path, updated).map_err(|e| raw_formats::FormatError::io(path, e))?;
+    Ok(())
 }
 
 fn bench_dng(args: &BenchDngArgs) -> Result<String, Error> {
