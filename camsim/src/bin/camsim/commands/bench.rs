@@ -268,6 +268,12 @@ fn bench_isp(args: &BenchIspArgs) -> Result<String, Error> {
         if p.config.dpc.is_active() {
             stages.push("defective pixels");
         }
+        if p.config.lsc.is_some() {
+            stages.push("lens shading");
+        }
+        if p.config.gain != 1.0 {
+            stages.push("gain");
+        }
         if p.config.wb_gains != [1.0; 3] {
             stages.push("white balance");
         }
@@ -277,8 +283,17 @@ fn bench_isp(args: &BenchIspArgs) -> Result<String, Error> {
         if p.config.highlight_knee < 1.0 {
             stages.push("highlights");
         }
+        if p.config.distortion.is_some_and(|d| !d.is_identity()) {
+            stages.push("distortion correction");
+        }
+        if p.config.denoise > 0.0 {
+            stages.push("denoise");
+        }
         if p.config.ccm != isp_core::pipeline::IDENTITY {
             stages.push("colour matrix");
+        }
+        if p.config.tone != isp_core::tone::Look::Neutral.tone() {
+            stages.push("tone");
         }
         stages.push("sRGB encode");
         if p.config.sharpen > 0.0 {
