@@ -51,6 +51,12 @@ fn quick_bench_writes_the_json_the_charts_and_the_summary() {
             }
         }
     }
+    // The learned peer belongs to full runs only, and says so.
+    assert!(results
+        .demosaic
+        .learned_skipped
+        .as_deref()
+        .is_some_and(|w| w.contains("quick")));
     let camsim_methods = results
         .demosaic
         .points

@@ -57,7 +57,7 @@ fn draw_pareto(r: &SuiteResults, path: &Path) -> Drawn {
         "Demosaicing: speed against accuracy (one thread; up and right is better)",
         r,
     )?;
-    let libraries = ["camsim", "OpenCV", "colour-demosaicing"];
+    let libraries = ["camsim", "OpenCV", "colour-demosaicing", "demosaicnet"];
     for (panel, (set, bits)) in body.split_evenly((2, 2)).iter().zip([
         ("kodak", 8),
         ("kodak", 16),

@@ -50,6 +50,9 @@ pub struct SuiteSettings {
     pub python: PathBuf,
     /// Fail, rather than skip the peers, when that Python cannot run them (CI).
     pub require_peers: bool,
+    /// A Python with torch and demosaicnet, the learned peer of full runs
+    /// (`scripts/setup-learned-peer.sh` makes `.venv-learned`); never required.
+    pub learned_python: PathBuf,
     /// The command line, for the captions.
     pub command: String,
 }
@@ -154,6 +157,12 @@ pub struct DemosaicSuite {
     pub tile: usize,
     /// The peers' library versions.
     pub peer_versions: Option<serde_json::Value>,
+    /// The learned peer's (demosaicnet's) versions, when it ran (full runs only).
+    #[serde(default)]
+    pub learned_versions: Option<serde_json::Value>,
+    /// Why the learned peer did not run, when it did not.
+    #[serde(default)]
+    pub learned_skipped: Option<String>,
 }
 
 /// One demosaicing method's fixed-against-float comparison.
@@ -543,12 +552,53 @@ fn demosaic_suite(
         Err(why) if !settings.require_peers => *peers_skipped = Some(why),
         Err(why) => return Err(Error::Message(format!("the peers did not run: {why}"))),
     }
+    let (mut learned_versions, mut learned_skipped) = (None, None);
+    if settings.quick {
+        learned_skipped = Some("quick runs leave the learned peer out".into());
+    } else {
+        progress("demosaic: learned peer (demosaicnet, about two minutes)");
+        let request = serde_json::json!({
+            "datasets": [settings.data.join("kodak"), settings.data.join("mcmaster")],
+            "images": limits.images,
+            "tile": LEARNED_TILE,
+            "depths": [8, 16],
+        });
+        let learned = SuiteSettings {
+            python: settings.learned_python.clone(),
+            ..settings.clone()
+        };
+        match run_python(&learned, include_str!("demosaic_learned.py"), &request) {
+            Ok(reply) => {
+                #[derive(Deserialize)]
+                struct Reply {
+                    rows: Vec<DemosaicPoint>,
+                    versions: serde_json::Value,
+                }
+                let reply: Reply = serde_json::from_value(reply)
+                    .map_err(|e| Error::Message(format!("the learned peer's reply: {e}")))?;
+                points.extend(reply.rows);
+                learned_versions = Some(reply.versions);
+            }
+            Err(why) => {
+                learned_skipped = Some(format!(
+                    "{why}; scripts/setup-learned-peer.sh makes .venv-learned \
+                     (or set CAMSIM_LEARNED_PYTHON)"
+                ))
+            }
+        }
+    }
     Ok(DemosaicSuite {
         points,
         tile: limits.tile,
         peer_versions,
+        learned_versions,
+        learned_skipped,
     })
 }
+
+/// Side of the tile the learned peer is timed on (its forward pass also computes a mirrored
+/// margin of about 50 pixels, which a caller would pay as well).
+const LEARNED_TILE: usize = 512;
 
 fn count_images(folder: &Path, limit: Option<usize>) -> Result<usize, Error> {
     let n = std::fs::read_dir(folder)
@@ -1566,6 +1616,13 @@ pub fn summary(r: &SuiteResults) -> String {
     );
     if let Some(v) = &r.demosaic.peer_versions {
         md += &format!(" Peers: {v}.");
+    }
+    match (&r.demosaic.learned_versions, &r.demosaic.learned_skipped) {
+        (Some(v), _) => {
+            md += &format!(" The learned peer, demosaicnet (Gharbi et al. 2016) on one CPU thread, timed on a {LEARNED_TILE} x {LEARNED_TILE} tile: {v}.")
+        }
+        (None, Some(why)) => md += &format!(" The learned peer did not run: {why}."),
+        (None, None) => {}
     }
     md += "\n\n| set | bits | library | method | CPSNR dB | Mpix/s |\n|---|---|---|---|---|---|\n";
     let mut points = r.demosaic.points.clone();

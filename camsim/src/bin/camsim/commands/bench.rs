@@ -380,6 +380,9 @@ fn run_suites(args: &BenchArgs) -> Result<String, Error> {
         data: args.data.clone(),
         python: oracle_python(),
         require_peers: std::env::var_os("CAMSIM_REQUIRE_ORACLE").is_some_and(|v| v == "1"),
+        learned_python: std::env::var_os("CAMSIM_LEARNED_PYTHON")
+            .map(PathBuf::from)
+            .unwrap_or_else(|| PathBuf::from(".venv-learned/bin/python")),
         command,
     };
     let mut progress = Progress::new("bench");
