@@ -230,8 +230,9 @@ fn draw_fixed_vs_float(r: &SuiteResults, path: &Path) -> Drawn {
         .label_font((FONT, 12))
         .draw()?;
 
-    let fastest = f.speed.iter().map(|s| s.mpix_per_s).fold(1.0, f64::max);
-    let rows = f.speed.len().max(1) as f64;
+    let speeds: Vec<_> = f.speed.iter().chain(&f.speed_opencv).collect();
+    let fastest = speeds.iter().map(|s| s.mpix_per_s).fold(1.0, f64::max);
+    let rows = speeds.len().max(1) as f64;
     let mut chart = ChartBuilder::on(&right)
         .caption("throughput, one thread", (FONT, 17))
         .margin(12)
@@ -246,11 +247,11 @@ fn draw_fixed_vs_float(r: &SuiteResults, path: &Path) -> Drawn {
         .x_label_formatter(&|v| format!("{v:.0}"))
         .label_style((FONT, 12))
         .draw()?;
-    for (i, s) in f.speed.iter().enumerate() {
-        let colour = if s.path == "fixed" {
-            PALETTE[3]
-        } else {
-            PALETTE[0]
+    for (i, s) in speeds.iter().enumerate() {
+        let colour = match s.path.as_str() {
+            "fixed" => PALETTE[3],
+            "float" => PALETTE[0],
+            _ => RGBColor(90, 90, 90),
         };
         let y = rows - i as f64 - 1.0;
         chart.draw_series([Rectangle::new(

@@ -206,6 +206,9 @@ pub struct FixedFloatSuite {
     pub speed_frame: String,
     /// Per path and method.
     pub speed: Vec<PathSpeed>,
+    /// OpenCV's pipeline (`camsim bench isp`'s peer) on the same frame, if it ran.
+    #[serde(default)]
+    pub speed_opencv: Option<PathSpeed>,
 }
 
 /// One lens of chart 6.
@@ -899,6 +902,37 @@ fn fixed_float_suite(
             });
         }
     }
+    progress("pipeline speed: OpenCV");
+    let options = IspOptions {
+        white_balance: Some(WhiteBalance::Gains([1.9, 1.0, 1.6])),
+        ccm: Some(CCM),
+        ..IspOptions::default()
+    };
+    let speed_opencv = with_prepared(&frame, &options, None, |p| match &p.input {
+        isp_core::pipeline::Input::Mosaic(raw) => Ok(opencv_pipeline(
+            &settings.python,
+            raw,
+            &p.config,
+            1,
+            repeats,
+            None,
+        )),
+        isp_core::pipeline::Input::Linear(_) => Err(Error::Message("a linear frame".into())),
+    })?;
+    let speed_opencv = match speed_opencv {
+        Ok(ms) => Some(PathSpeed {
+            path: "OpenCV".into(),
+            method: "bilinear (cvtColor)".into(),
+            ms_per_frame: ms,
+            mpix_per_s: (frame.raw.width * frame.raw.height) as f64 / (ms * 1e3),
+        }),
+        Err(_) if !settings.require_peers => None,
+        Err(why) => {
+            return Err(Error::Message(format!(
+                "the OpenCV pipeline did not run: {why}"
+            )))
+        }
+    };
     Ok(FixedFloatSuite {
         stages: "defective pixels (dynamic), black level, white balance, demosaic, highlights \
                  (knee 0.9), colour matrix, sRGB encoding"
@@ -907,6 +941,7 @@ fn fixed_float_suite(
         agreement,
         speed_frame: format!("{frame_name}, one thread, best of {repeats}"),
         speed,
+        speed_opencv,
     })
 }
 
@@ -1560,10 +1595,50 @@ pub fn readme_blocks(r: &SuiteResults) -> Vec<(&'static str, String)> {
         );
     }
     pipeline += &format!("\n{}; {}. {provenance}\n", p.scene, p.stages);
+    let f = &r.fixed_vs_float;
+    let mut speed = format!(
+        "| path | demosaic | ms per frame | Mpix/s |{} \n|---|---|---|---|{}\n",
+        if f.speed_opencv.is_some() {
+            " time against OpenCV's |"
+        } else {
+            ""
+        },
+        if f.speed_opencv.is_some() { "---|" } else { "" }
+    );
+    for q in f.speed.iter().chain(&f.speed_opencv) {
+        speed += &format!(
+            "| {} | {} | {:.1} | {:.1} |{}\n",
+            q.path,
+            q.method,
+            q.ms_per_frame,
+            q.mpix_per_s,
+            f.speed_opencv.as_ref().map_or(String::new(), |o| format!(
+                " {:.2}x |",
+                q.ms_per_frame / o.ms_per_frame
+            ))
+        );
+    }
+    speed += &format!(
+        "\n{}: {}; OpenCV's pipeline has no defect correction or highlight stage. {provenance}\n",
+        f.speed_frame, f.stages
+    );
+    let rs = &r.render;
+    let mut features =
+        "| variant | Msamples/s | time x | what it adds per sample |\n|---|---|---|---|\n"
+            .to_string();
+    for q in &rs.features {
+        features += &format!(
+            "| {} | {:.2} | {:.2} | {} |\n",
+            q.variant, q.msamples_per_s, q.relative_time, q.what
+        );
+    }
+    features += &format!("\n{}. {provenance}\n", rs.feature_setup);
     vec![
         ("provenance", provenance + "\n"),
         ("demosaic", demosaic),
         ("pipeline", pipeline),
+        ("isp-speed", speed),
+        ("features", features),
     ]
 }
 
@@ -1686,7 +1761,7 @@ pub fn summary(r: &SuiteResults) -> String {
         "\nThroughput on the {}:\n\n| path | method | ms per frame | Mpix/s |\n|---|---|---|---|\n",
         f.speed_frame
     );
-    for s in &f.speed {
+    for s in f.speed.iter().chain(&f.speed_opencv) {
         md += &format!(
             "| {} | {} | {:.1} | {:.1} |\n",
             s.path, s.method, s.ms_per_frame, s.mpix_per_s
