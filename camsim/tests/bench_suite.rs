@@ -177,8 +177,15 @@ fn quick_bench_writes_the_json_the_charts_and_the_summary() {
         assert_eq!(counted, a.samples);
         assert!(a.samples > 0 && a.within_one_lsb > 0.99, "{a:?}");
     }
-    assert_eq!(f.speed.len(), 6);
+    assert_eq!(f.speed.len(), 10);
     assert!(f.speed.iter().all(|s| s.mpix_per_s > 0.0));
+    assert_eq!(f.speed.iter().filter(|s| s.threads == 2).count(), 3);
+    if results.peers_skipped.is_none() {
+        assert!(f
+            .speed
+            .iter()
+            .all(|s| s.opencv_ms.is_some_and(|ms| ms > 0.0)));
+    }
 
     assert_eq!(results.depth_of_field.lenses.len(), 4);
     for lens in &results.depth_of_field.lenses {

@@ -230,7 +230,12 @@ fn draw_fixed_vs_float(r: &SuiteResults, path: &Path) -> Drawn {
         .label_font((FONT, 12))
         .draw()?;
 
-    let speeds: Vec<_> = f.speed.iter().chain(&f.speed_opencv).collect();
+    let speeds: Vec<_> = f
+        .speed
+        .iter()
+        .filter(|q| q.threads == 1 && q.sharpen == 0.0)
+        .chain(&f.speed_opencv)
+        .collect();
     let fastest = speeds.iter().map(|s| s.mpix_per_s).fold(1.0, f64::max);
     let rows = speeds.len().max(1) as f64;
     let mut chart = ChartBuilder::on(&right)

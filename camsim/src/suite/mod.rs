@@ -187,10 +187,23 @@ pub struct PathSpeed {
     pub path: String,
     /// The demosaicing method.
     pub method: String,
+    /// Threads (bands).
+    #[serde(default = "one")]
+    pub threads: usize,
+    /// Sharpening amount (0: off).
+    #[serde(default)]
+    pub sharpen: f32,
     /// Best time per frame, ms.
     pub ms_per_frame: f64,
     /// Megapixels per second.
     pub mpix_per_s: f64,
+    /// OpenCV's pipeline with the same threads and sharpening, timed in the same run, ms.
+    #[serde(default)]
+    pub opencv_ms: Option<f64>,
+}
+
+fn one() -> usize {
+    1
 }
 
 /// Chart 3's figures.
@@ -874,72 +887,94 @@ fn fixed_float_suite(
     }
     let (frame, frame_name) = synthetic_raw()?;
     let repeats = if settings.quick { 2 } else { 10 };
-    let mut speed = Vec::new();
+    let (w, h) = (frame.raw.width, frame.raw.height);
+    // Issue 19's configurations: one thread for each path and method, two threads, and
+    // sharpening (the general engine); each beside OpenCV's pipeline with the same threads and
+    // sharpening, timed in the same run.
+    let mut configs: Vec<(bool, Method, usize, f32)> = Vec::new();
     for fixed in [false, true] {
         for method in PIPELINE_METHODS {
-            let path = if fixed { "fixed" } else { "float" };
-            progress(&format!("pipeline speed: {path} {}", method.name()));
-            let options = IspOptions {
-                fixed: Some(fixed),
-                demosaic: Some(method),
-                dpc_threshold: Some(64),
-                white_balance: Some(WhiteBalance::Gains([1.9, 1.0, 1.6])),
-                ccm: Some(CCM),
-                out_bits: Some(8),
-                ..IspOptions::default()
-            };
-            let ms = with_prepared(&frame, &options, None, |p| {
-                let (w, h) = (p.input.width(), p.input.height());
-                let mut runner = Runner::new(&p.input, &p.config, p.fixed, 8, 1)?;
-                Ok(runner.best_ms(&mut vec![0u8; w * h * 3], repeats)?)
-            })?;
-            let (w, h) = (frame.raw.width, frame.raw.height);
-            speed.push(PathSpeed {
-                path: path.into(),
-                method: method.name().into(),
-                ms_per_frame: ms,
-                mpix_per_s: (w * h) as f64 / (ms * 1e3),
-            });
+            configs.push((fixed, method, 1, 0.0));
         }
     }
-    progress("pipeline speed: OpenCV");
-    let options = IspOptions {
-        white_balance: Some(WhiteBalance::Gains([1.9, 1.0, 1.6])),
-        ccm: Some(CCM),
-        ..IspOptions::default()
-    };
-    let speed_opencv = with_prepared(&frame, &options, None, |p| match &p.input {
-        isp_core::pipeline::Input::Mosaic(raw) => Ok(opencv_pipeline(
-            &settings.python,
-            raw,
-            &p.config,
-            1,
-            repeats,
-            None,
-        )),
-        isp_core::pipeline::Input::Linear(_) => Err(Error::Message("a linear frame".into())),
-    })?;
-    let speed_opencv = match speed_opencv {
-        Ok(ms) => Some(PathSpeed {
+    configs.extend([
+        (true, Method::Mhc, 2, 0.0),
+        (false, Method::Directional, 2, 0.0),
+        (true, Method::Directional, 2, 0.0),
+        (true, Method::Mhc, 1, 1.0),
+    ]);
+    let mut speed = Vec::new();
+    for (fixed, method, threads, sharpen) in configs {
+        let path = if fixed { "fixed" } else { "float" };
+        progress(&format!(
+            "pipeline speed: {path} {}, {threads} thread(s), sharpen {sharpen}",
+            method.name()
+        ));
+        let options = IspOptions {
+            fixed: Some(fixed),
+            demosaic: Some(method),
+            dpc_threshold: Some(64),
+            white_balance: Some(WhiteBalance::Gains([1.9, 1.0, 1.6])),
+            ccm: Some(CCM),
+            highlight_knee: Some(1.0),
+            sharpen: Some(sharpen),
+            out_bits: Some(8),
+            ..IspOptions::default()
+        };
+        let (ms, opencv) = with_prepared(&frame, &options, None, |p| {
+            let mut runner = Runner::new(&p.input, &p.config, p.fixed, 8, threads)?;
+            let ms = runner.best_ms(&mut vec![0u8; w * h * 3], repeats)?;
+            let opencv = match &p.input {
+                isp_core::pipeline::Input::Mosaic(raw) => {
+                    opencv_pipeline(&settings.python, raw, &p.config, threads, repeats, None)
+                }
+                isp_core::pipeline::Input::Linear(_) => Err("a linear frame".into()),
+            };
+            Ok((ms, opencv))
+        })?;
+        let opencv_ms = match opencv {
+            Ok(ms) => Some(ms),
+            Err(_) if !settings.require_peers => None,
+            Err(why) => {
+                return Err(Error::Message(format!(
+                    "the OpenCV pipeline did not run: {why}"
+                )))
+            }
+        };
+        speed.push(PathSpeed {
+            path: path.into(),
+            method: method.name().into(),
+            threads,
+            sharpen,
+            ms_per_frame: ms,
+            mpix_per_s: (w * h) as f64 / (ms * 1e3),
+            opencv_ms,
+        });
+    }
+    let speed_opencv = speed
+        .iter()
+        .find(|q| q.threads == 1 && q.sharpen == 0.0)
+        .and_then(|q| q.opencv_ms)
+        .map(|ms| PathSpeed {
             path: "OpenCV".into(),
             method: "bilinear (cvtColor)".into(),
+            threads: 1,
+            sharpen: 0.0,
             ms_per_frame: ms,
-            mpix_per_s: (frame.raw.width * frame.raw.height) as f64 / (ms * 1e3),
-        }),
-        Err(_) if !settings.require_peers => None,
-        Err(why) => {
-            return Err(Error::Message(format!(
-                "the OpenCV pipeline did not run: {why}"
-            )))
-        }
-    };
+            mpix_per_s: (w * h) as f64 / (ms * 1e3),
+            opencv_ms: Some(ms),
+        });
     Ok(FixedFloatSuite {
         stages: "defective pixels (dynamic), black level, white balance, demosaic, highlights \
                  (knee 0.9), colour matrix, sRGB encoding"
             .into(),
         images: images.len(),
         agreement,
-        speed_frame: format!("{frame_name}, one thread, best of {repeats}"),
+        speed_frame: format!(
+            "{frame_name}; dynamic defect correction (threshold 64), black level, white balance \
+             1.9/1/1.6, demosaic, colour matrix, sRGB encoding (no highlight stage: knee 1); \
+             best of {repeats}"
+        ),
         speed,
         speed_opencv,
     })
@@ -1596,31 +1631,12 @@ pub fn readme_blocks(r: &SuiteResults) -> Vec<(&'static str, String)> {
     }
     pipeline += &format!("\n{}; {}. {provenance}\n", p.scene, p.stages);
     let f = &r.fixed_vs_float;
-    let mut speed = format!(
-        "| path | demosaic | ms per frame | Mpix/s |{} \n|---|---|---|---|{}\n",
-        if f.speed_opencv.is_some() {
-            " time against OpenCV's |"
-        } else {
-            ""
-        },
-        if f.speed_opencv.is_some() { "---|" } else { "" }
-    );
-    for q in f.speed.iter().chain(&f.speed_opencv) {
-        speed += &format!(
-            "| {} | {} | {:.1} | {:.1} |{}\n",
-            q.path,
-            q.method,
-            q.ms_per_frame,
-            q.mpix_per_s,
-            f.speed_opencv.as_ref().map_or(String::new(), |o| format!(
-                " {:.2}x |",
-                q.ms_per_frame / o.ms_per_frame
-            ))
-        );
-    }
-    speed += &format!(
-        "\n{}: {}; OpenCV's pipeline has no defect correction or highlight stage. {provenance}\n",
-        f.speed_frame, f.stages
+    let speed = format!(
+        "{}\nOn the {}. OpenCV's pipeline (`cv2.subtract`, Bayer `cvtColor` at 16 bits, \
+         `cv2.multiply`, `cv2.transform`, `cv2.convertScaleAbs`, `cv2.LUT`; with sharpening an \
+         unsharp mask on YCrCb luma) has no defect correction. {provenance}\n",
+        speed_table(f),
+        f.speed_frame
     );
     let rs = &r.render;
     let mut features =
@@ -1662,6 +1678,26 @@ pub fn update_readme(readme: &str, r: &SuiteResults) -> Result<String, Error> {
         }
     }
     Ok(text)
+}
+
+/// The pipeline speeds as a Markdown table, each beside OpenCV's time in the same run.
+fn speed_table(f: &FixedFloatSuite) -> String {
+    let mut t = "| path | demosaic | threads | sharpen | ms per frame | Mpix/s | OpenCV, same run | time against OpenCV's |\n|---|---|---|---|---|---|---|---|\n".to_string();
+    for q in &f.speed {
+        t += &format!(
+            "| {} | {} | {} | {} | {:.1} | {:.1} | {} | {} |\n",
+            q.path,
+            q.method,
+            q.threads,
+            q.sharpen,
+            q.ms_per_frame,
+            q.mpix_per_s,
+            q.opencv_ms.map_or("–".into(), |o| format!("{o:.1} ms")),
+            q.opencv_ms
+                .map_or("–".into(), |o| format!("{:.2}x", q.ms_per_frame / o))
+        );
+    }
+    t
 }
 
 /// `summary.md`: the charts and every figure in tables.
@@ -1757,16 +1793,8 @@ pub fn summary(r: &SuiteResults) -> String {
             a.worst_lsb
         );
     }
-    md += &format!(
-        "\nThroughput on the {}:\n\n| path | method | ms per frame | Mpix/s |\n|---|---|---|---|\n",
-        f.speed_frame
-    );
-    for s in f.speed.iter().chain(&f.speed_opencv) {
-        md += &format!(
-            "| {} | {} | {:.1} | {:.1} |\n",
-            s.path, s.method, s.ms_per_frame, s.mpix_per_s
-        );
-    }
+    md += &format!("\nThroughput on the {}:\n\n", f.speed_frame);
+    md += &speed_table(f);
     let a = &r.awb;
     md += &format!(
         "\n## Auto white balance under six illuminants\n\n![AWB error](awb.svg)\n\n\
