@@ -549,27 +549,31 @@ pub fn pipeline(r: &SuiteResults, path: &Path) -> Result<(), Error> {
 
 fn draw_pipeline(r: &SuiteResults, path: &Path) -> Drawn {
     let p = &r.pipeline;
-    let root = SVGBackend::new(path, (1400, 800)).into_drawing_area();
+    let root = SVGBackend::new(path, (1500, 760)).into_drawing_area();
     let body = figure(
         &root,
         "The whole ISP: speed against output quality (one thread; up and right is better)",
         r,
     )?;
-    let peers: Vec<_> = p
-        .opencv
-        .iter()
-        .filter_map(|o| o.psnr_db.map(|d| (o, d)))
-        .collect();
-    let (mut lo_db, mut hi_db) = (f64::MAX, f64::MIN);
-    for d in p
-        .points
-        .iter()
-        .map(|q| q.psnr_db)
-        .chain(peers.iter().map(|x| x.1))
-    {
-        lo_db = lo_db.min(d);
-        hi_db = hi_db.max(d);
+    let (head, body) = body.split_vertically(22);
+    head.draw(&Text::new(
+        p.scene.clone(),
+        (12, 2),
+        (FONT, 13).into_font().color(&BLACK.mix(0.8)),
+    ))?;
+    let mut scenes: Vec<&str> = Vec::new();
+    for q in &p.points {
+        if !scenes.contains(&q.scene.as_str()) {
+            scenes.push(&q.scene);
+        }
     }
+    let mut methods: Vec<&str> = Vec::new();
+    for q in &p.points {
+        if !methods.contains(&q.method.as_str()) {
+            methods.push(&q.method);
+        }
+    }
+    // One speed axis for every panel, so they compare.
     let speeds = p
         .points
         .iter()
@@ -577,86 +581,96 @@ fn draw_pipeline(r: &SuiteResults, path: &Path) -> Drawn {
         .chain([p.copy.mpix_per_s])
         .chain(p.opencv.iter().map(|o| o.mpix_per_s));
     let (lo_s, hi_s) = speeds.fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(v), b.max(v)));
-    let mut chart = ChartBuilder::on(&body)
-        .caption(p.scene.as_str(), (FONT, 13))
-        .margin(14)
-        .x_label_area_size(42)
-        .y_label_area_size(70)
-        .build_cartesian_2d(
-            (lo_db - 0.5)..(hi_db + 0.8),
-            (lo_s / 1.6..hi_s * 1.6).log_scale(),
-        )?;
-    chart
-        .configure_mesh()
-        .x_desc("PSNR of the 8-bit output against the truth (dB)")
-        .y_desc("throughput (Mpix/s, log)")
-        .y_label_formatter(&|v| tick(*v))
-        .label_style((FONT, 12))
-        .draw()?;
-    let (x0, x1) = (lo_db - 0.5, hi_db + 0.8);
-    chart
-        .draw_series(DashedLineSeries::new(
-            [(x0, p.copy.mpix_per_s), (x1, p.copy.mpix_per_s)],
-            6,
-            4,
-            BLACK.mix(0.6).stroke_width(1),
-        ))?
-        .label(format!("{} ({:.0} Mpix/s)", p.copy.what, p.copy.mpix_per_s))
-        .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], BLACK.mix(0.6)));
-    let mut methods: Vec<&str> = Vec::new();
-    for q in &p.points {
-        if !methods.contains(&q.method.as_str()) {
-            methods.push(&q.method);
+    let panels = body.split_evenly((1, scenes.len().max(1)));
+    for (panel, scene) in panels.iter().zip(&scenes) {
+        let peers: Vec<_> = p
+            .opencv
+            .iter()
+            .filter(|o| o.scene == *scene)
+            .filter_map(|o| o.psnr_db.map(|d| (o, d)))
+            .collect();
+        let (mut lo_db, mut hi_db) = (f64::MAX, f64::MIN);
+        for d in p
+            .points
+            .iter()
+            .filter(|q| q.scene == *scene)
+            .map(|q| q.psnr_db)
+            .chain(peers.iter().map(|x| x.1))
+        {
+            lo_db = lo_db.min(d);
+            hi_db = hi_db.max(d);
         }
-    }
-    for (k, method) in methods.iter().enumerate() {
-        let colour = PALETTE[k % PALETTE.len()];
-        for fixed in [false, true] {
-            let mine = p
-                .points
-                .iter()
-                .filter(|q| q.method == *method && (q.path == "fixed") == fixed);
-            let series = chart.draw_series(mine.map(|q| {
-                let at = EmptyElement::at((q.psnr_db, q.mpix_per_s));
-                let label = Text::new(
-                    format!("dn {}", q.denoise),
-                    (8, if fixed { 2 } else { -12 }),
-                    (FONT, 10).into_font().color(&colour),
-                );
+        let (x0, x1) = (lo_db - 0.5, hi_db + 0.8);
+        let mut chart = ChartBuilder::on(panel)
+            .caption(*scene, (FONT, 16))
+            .margin(14)
+            .x_label_area_size(42)
+            .y_label_area_size(70)
+            .build_cartesian_2d(x0..x1, (lo_s / 1.6..hi_s * 1.6).log_scale())?;
+        chart
+            .configure_mesh()
+            .x_desc("PSNR of the 8-bit output against the truth (dB)")
+            .y_desc("throughput (Mpix/s, log)")
+            .y_label_formatter(&|v| tick(*v))
+            .label_style((FONT, 12))
+            .draw()?;
+        chart
+            .draw_series(DashedLineSeries::new(
+                [(x0, p.copy.mpix_per_s), (x1, p.copy.mpix_per_s)],
+                6,
+                4,
+                BLACK.mix(0.6).stroke_width(1),
+            ))?
+            .label(format!("{} ({:.0} Mpix/s)", p.copy.what, p.copy.mpix_per_s))
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], BLACK.mix(0.6)));
+        for (k, method) in methods.iter().enumerate() {
+            let colour = PALETTE[k % PALETTE.len()];
+            for fixed in [false, true] {
+                let mine = p.points.iter().filter(|q| {
+                    q.scene == *scene && q.method == *method && (q.path == "fixed") == fixed
+                });
+                let series = chart.draw_series(mine.map(|q| {
+                    let at = EmptyElement::at((q.psnr_db, q.mpix_per_s));
+                    let label = Text::new(
+                        format!("dn {}", q.denoise),
+                        (8, if fixed { 2 } else { -12 }),
+                        (FONT, 10).into_font().color(&colour),
+                    );
+                    if fixed {
+                        at + TriangleMarker::new((0, 0), 7, colour.filled()).into_dyn() + label
+                    } else {
+                        at + Circle::new((0, 0), 5, colour.filled()).into_dyn() + label
+                    }
+                }))?;
+                let name = format!("{method}, {} path", if fixed { "fixed" } else { "float" });
                 if fixed {
-                    at + TriangleMarker::new((0, 0), 7, colour.filled()).into_dyn() + label
+                    series
+                        .label(name)
+                        .legend(move |(x, y)| TriangleMarker::new((x + 9, y), 7, colour.filled()));
                 } else {
-                    at + Circle::new((0, 0), 5, colour.filled()).into_dyn() + label
+                    series
+                        .label(name)
+                        .legend(move |(x, y)| Circle::new((x + 9, y), 5, colour.filled()));
                 }
-            }))?;
-            let name = format!("{method}, {} path", if fixed { "fixed" } else { "float" });
-            if fixed {
-                series
-                    .label(name)
-                    .legend(move |(x, y)| TriangleMarker::new((x + 9, y), 7, colour.filled()));
-            } else {
-                series
-                    .label(name)
-                    .legend(move |(x, y)| Circle::new((x + 9, y), 5, colour.filled()));
             }
         }
-    }
-    let grey = RGBColor(90, 90, 90);
-    for (peer, db) in &peers {
+        let grey = RGBColor(90, 90, 90);
+        for (peer, db) in &peers {
+            chart
+                .draw_series([EmptyElement::at((*db, peer.mpix_per_s))
+                    + Cross::new((0, 0), 7, grey.stroke_width(2))
+                    + Text::new("OpenCV", (9, -12), (FONT, 11).into_font().color(&grey))])?
+                .label("OpenCV's pipeline (bilinear; no defects, shading or denoise)")
+                .legend(move |(x, y)| Cross::new((x + 9, y), 6, grey.stroke_width(2)));
+        }
         chart
-            .draw_series([EmptyElement::at((*db, peer.mpix_per_s))
-                + Cross::new((0, 0), 7, grey.stroke_width(2))
-                + Text::new("OpenCV", (9, -12), (FONT, 11).into_font().color(&grey))])?
-            .label(peer.what.clone())
-            .legend(move |(x, y)| Cross::new((x + 9, y), 6, grey.stroke_width(2)));
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK.mix(0.4))
+            .label_font((FONT, 11))
+            .draw()?;
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK.mix(0.4))
-        .label_font((FONT, 12))
-        .draw()?;
     root.present()?;
     Ok(())
 }

@@ -282,6 +282,9 @@ pub struct AwbSuite {
 /// One pipeline configuration of chart 2.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PipelinePoint {
+    /// The scene.
+    #[serde(default)]
+    pub scene: String,
     /// `float` or `fixed`.
     pub path: String,
     /// The demosaicing method.
@@ -299,6 +302,9 @@ pub struct PipelinePoint {
 /// A peer on chart 2's axes.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PipelinePeer {
+    /// The scene.
+    #[serde(default)]
+    pub scene: String,
     /// What it does.
     pub what: String,
     /// Best time per frame, ms.
@@ -312,16 +318,17 @@ pub struct PipelinePeer {
 /// Chart 2's figures.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PipelineSuite {
-    /// The rendered scene and the camera.
+    /// The rendered scenes and the camera.
     pub scene: String,
     /// The stages every configuration runs.
     pub stages: String,
-    /// Every path, method and denoise strength.
+    /// Every scene, path, method and denoise strength.
     pub points: Vec<PipelinePoint>,
-    /// A plain copy of the raw frame's bytes.
+    /// A plain copy of the (first scene's) raw frame's bytes.
     pub copy: PipelinePeer,
-    /// The OpenCV pipeline of `camsim bench isp`, if the oracle environment ran it.
-    pub opencv: Option<PipelinePeer>,
+    /// The OpenCV pipeline of `camsim bench isp` on each scene, if the oracle environment
+    /// ran it.
+    pub opencv: Vec<PipelinePeer>,
 }
 
 /// One camera under one illuminant, chart 8.
@@ -659,6 +666,12 @@ fn run_python(
     serde_json::from_slice(&output.stdout).map_err(|e| format!("the peer script's reply: {e}"))
 }
 
+/// Chart 2's scenes: the demo scene (ColorChecker, bokeh, motion, fringes) under its own D65
+/// and relit by illuminant A (tungsten: the white balance and the colour matrix work harder).
+/// Each is a name, the scene and its illuminant. (The Cornell box is not one: its light is
+/// warm RGB, and an RGB scene's truth assumes a white one.)
+const PIPELINE_SCENES: [(&str, &str, &str); 2] =
+    [("demo, D65", "demo", "D65"), ("demo under A", "demo", "A")];
 /// Chart 2's denoise strengths.
 const DENOISE: [f32; 3] = [0.0, 0.01, 0.03];
 
@@ -671,105 +684,125 @@ fn pipeline_suite(
     use isp_core::metrics::psnr;
     use isp_core::pipeline::Input;
 
-    let (width, height, spp, repeats) = if settings.quick {
-        (300, 200, 16, 3)
-    } else {
-        (600, 400, 64, 20)
-    };
-    progress(&format!(
-        "pipeline: rendering the demo scene at {width} x {height}, {spp} spp"
-    ));
-    let demo = DemoSettings {
-        width: Some(width),
-        height: Some(height),
-        spp: Some(spp),
-        ..DemoSettings::default()
-    };
-    let captured = capture(&demo, &|_| {})?;
-    let (w, h) = (captured.width(), captured.height());
-    let raw = captured.capture.raw.frame()?;
-    let input = Input::Mosaic(raw);
-    // Speed is timed on the frame tiled 4 x 4 (the CFA phase kept: the sides are even), so
-    // the frame is megapixels, as a camera's is, not a few hundred kilopixels that stay in
-    // cache; quality is measured on the frame itself.
-    let source = &captured.capture.raw;
-    let (tw, th) = (4 * w, 4 * h);
-    let tiled = RawImage::new(
-        tw,
-        th,
-        source.pattern,
-        source.bits,
-        source.black_level,
-        source.white_level,
-        (0..tw * th)
-            .map(|i| source.samples[(i / tw % h) * w + i % tw % w])
-            .collect(),
-    )?;
-    let tiled_frame = tiled.frame()?;
-    let tiled_input = Input::Mosaic(tiled_frame);
-    let mpix = |ms: f64| (tw * th) as f64 / (ms * 1e3);
-    let score = |out: &[u8]| {
-        let out: Vec<u16> = out.iter().map(|v| u16::from(*v)).collect();
-        psnr(&out, &captured.truth8, 255.0)
-    };
+    let (spp, repeats) = if settings.quick { (16, 3) } else { (64, 20) };
     let mut points = Vec::new();
-    for fixed in [false, true] {
-        let path = if fixed { "fixed" } else { "float" };
-        for method in PIPELINE_METHODS {
-            for denoise in DENOISE {
-                progress(&format!(
-                    "pipeline: {path} {} denoise {denoise}",
-                    method.name()
-                ));
-                let config = captured.isp_config(method, denoise)?;
-                let mut out = vec![0u8; w * h * 3];
-                Runner::new(&input, &config, fixed, 8, 1)?.best_ms(&mut out, 1)?;
-                let ms = Runner::new(&tiled_input, &config, fixed, 8, 1)?
-                    .best_ms(&mut vec![0u8; tw * th * 3], repeats)?;
-                points.push(PipelinePoint {
-                    path: path.into(),
-                    method: method.name().into(),
-                    denoise,
-                    psnr_db: score(&out),
-                    ms_per_frame: ms,
-                    mpix_per_s: mpix(ms),
-                });
+    let mut opencv = Vec::new();
+    let mut copy = None;
+    let mut described = Vec::new();
+    let demo = DemoSettings::default();
+    for (name, scene, illuminant) in PIPELINE_SCENES {
+        let film = host_tracer::tracer::scene_file::load(scene)?.film;
+        // The scene's own size (half of it in quick runs, kept even for the CFA).
+        let (width, height) = if settings.quick {
+            ((film.0 / 2) & !1, (film.1 / 2) & !1)
+        } else {
+            film
+        };
+        progress(&format!(
+            "pipeline: rendering {name} at {width} x {height}, {spp} spp"
+        ));
+        let captured = capture(
+            &DemoSettings {
+                scene: scene.into(),
+                illuminant: Some(illuminant.into()),
+                width: Some(width),
+                height: Some(height),
+                spp: Some(spp),
+                ..DemoSettings::default()
+            },
+            &|_| {},
+        )?;
+        let (w, h) = (captured.width(), captured.height());
+        let raw = captured.capture.raw.frame()?;
+        let input = Input::Mosaic(raw);
+        // Speed is timed on the frame tiled 4 x 4 (the CFA phase kept: the sides are even),
+        // so the frame is megapixels, as a camera's is, not a few hundred kilopixels that stay
+        // in cache; quality is measured on the frame itself.
+        let source = &captured.capture.raw;
+        let (tw, th) = (4 * w, 4 * h);
+        let tiled = RawImage::new(
+            tw,
+            th,
+            source.pattern,
+            source.bits,
+            source.black_level,
+            source.white_level,
+            (0..tw * th)
+                .map(|i| source.samples[(i / tw % h) * w + i % tw % w])
+                .collect(),
+        )?;
+        let tiled_frame = tiled.frame()?;
+        let tiled_input = Input::Mosaic(tiled_frame);
+        let mpix = |ms: f64| (tw * th) as f64 / (ms * 1e3);
+        let score = |out: &[u8]| {
+            let out: Vec<u16> = out.iter().map(|v| u16::from(*v)).collect();
+            psnr(&out, &captured.truth8, 255.0)
+        };
+        for fixed in [false, true] {
+            let path = if fixed { "fixed" } else { "float" };
+            for method in PIPELINE_METHODS {
+                for denoise in DENOISE {
+                    progress(&format!(
+                        "pipeline: {name}, {path} {} denoise {denoise}",
+                        method.name()
+                    ));
+                    let config = captured.isp_config(method, denoise)?;
+                    let mut out = vec![0u8; w * h * 3];
+                    Runner::new(&input, &config, fixed, 8, 1)?.best_ms(&mut out, 1)?;
+                    let ms = Runner::new(&tiled_input, &config, fixed, 8, 1)?
+                        .best_ms(&mut vec![0u8; tw * th * 3], repeats)?;
+                    points.push(PipelinePoint {
+                        scene: name.into(),
+                        path: path.into(),
+                        method: method.name().into(),
+                        denoise,
+                        psnr_db: score(&out),
+                        ms_per_frame: ms,
+                        mpix_per_s: mpix(ms),
+                    });
+                }
             }
         }
+        if copy.is_none() {
+            let ms = copy_ms(&tiled.samples, repeats.max(10));
+            copy = Some(PipelinePeer {
+                scene: name.into(),
+                what: "copy of the raw frame".into(),
+                ms_per_frame: ms,
+                mpix_per_s: mpix(ms),
+                psnr_db: None,
+            });
+        }
+        progress(&format!("pipeline: {name}, OpenCV"));
+        let config = captured.isp_config(Method::Bilinear, 0.0)?;
+        let mut image = Vec::new();
+        match opencv_pipeline(&settings.python, &raw, &config, 1, 1, Some(&mut image)).and_then(
+            |_| opencv_pipeline(&settings.python, &tiled_frame, &config, 1, repeats, None),
+        ) {
+            Ok(ms) => opencv.push(PipelinePeer {
+                scene: name.into(),
+                what: "OpenCV: subtract, cvtColor (Bayer bilinear), multiply, transform, LUT"
+                    .into(),
+                ms_per_frame: ms,
+                mpix_per_s: mpix(ms),
+                psnr_db: Some(score(&image)),
+            }),
+            Err(why) if !settings.require_peers => {
+                peers_skipped.get_or_insert(why);
+            }
+            Err(why) => {
+                return Err(Error::Message(format!(
+                    "the OpenCV pipeline did not run: {why}"
+                )))
+            }
+        }
+        described.push(format!("{name} {w} x {h} (timed tiled 4 x 4, {tw} x {th})"));
     }
-    let copy_ms = copy_ms(&tiled.samples, repeats.max(10));
-    let copy = PipelinePeer {
-        what: "copy of the raw frame".into(),
-        ms_per_frame: copy_ms,
-        mpix_per_s: mpix(copy_ms),
-        psnr_db: None,
-    };
-    progress("pipeline: OpenCV");
-    let config = captured.isp_config(Method::Bilinear, 0.0)?;
-    let mut image = Vec::new();
-    let opencv = match opencv_pipeline(&settings.python, &raw, &config, 1, 1, Some(&mut image))
-        .and_then(|_| opencv_pipeline(&settings.python, &tiled_frame, &config, 1, repeats, None))
-    {
-        Ok(ms) => Some(PipelinePeer {
-            what: "OpenCV: subtract, cvtColor (Bayer bilinear), multiply, transform, LUT".into(),
-            ms_per_frame: ms,
-            mpix_per_s: mpix(ms),
-            psnr_db: Some(score(&image)),
-        }),
-        Err(why) if !settings.require_peers => {
-            peers_skipped.get_or_insert(why);
-            None
-        }
-        Err(why) => {
-            return Err(Error::Message(format!(
-                "the OpenCV pipeline did not run: {why}"
-            )))
-        }
-    };
+    let copy = copy.ok_or(Error::Message("no scene was rendered".into()))?;
     Ok(PipelineSuite {
         scene: format!(
-            "camsim's demo scene, {w} x {h}, {spp} spp, through a simulated {} ({} sensor, ISO {}, \
-             {}-bit); timed on it tiled 4 x 4 ({tw} x {th})",
+            "{}; {spp} spp, through a simulated {} ({} sensor, ISO {}, {}-bit)",
+            described.join(", "),
             demo.camera,
             demo.sensor.name(),
             demo.iso,
@@ -1615,16 +1648,18 @@ pub fn readme_blocks(r: &SuiteResults) -> Vec<(&'static str, String)> {
     );
     let p = &r.pipeline;
     let mut pipeline =
-        "| path | method | denoise | PSNR dB | Mpix/s |\n|---|---|---|---|---|\n".to_string();
+        "| scene | path | method | denoise | PSNR dB | Mpix/s |\n|---|---|---|---|---|---|\n"
+            .to_string();
     for q in &p.points {
         pipeline += &format!(
-            "| {} | {} | {} | {:.2} | {:.1} |\n",
-            q.path, q.method, q.denoise, q.psnr_db, q.mpix_per_s
+            "| {} | {} | {} | {} | {:.2} | {:.1} |\n",
+            q.scene, q.path, q.method, q.denoise, q.psnr_db, q.mpix_per_s
         );
     }
-    if let Some(o) = &p.opencv {
+    for o in &p.opencv {
         pipeline += &format!(
-            "| OpenCV | bilinear (no defects, shading or denoise) | – | {} | {:.1} |\n",
+            "| {} | OpenCV | bilinear (no defects, shading or denoise) | – | {} | {:.1} |\n",
+            o.scene,
             o.psnr_db.map_or("–".into(), |v| format!("{v:.2}")),
             o.mpix_per_s
         );
@@ -1752,18 +1787,19 @@ pub fn summary(r: &SuiteResults) -> String {
     md += &format!(
         "\n## The whole ISP: speed against output quality\n\n![ISP configurations](pipeline.svg)\n\n\
          {} ({}), PSNR of the 8-bit output against the truth.\n\n\
-         | path | method | denoise | PSNR dB | ms per frame | Mpix/s |\n|---|---|---|---|---|---|\n",
+         | scene | path | method | denoise | PSNR dB | ms per frame | Mpix/s |\n|---|---|---|---|---|---|---|\n",
         p.scene, p.stages
     );
     for q in &p.points {
         md += &format!(
-            "| {} | {} | {} | {:.2} | {:.2} | {:.1} |\n",
-            q.path, q.method, q.denoise, q.psnr_db, q.ms_per_frame, q.mpix_per_s
+            "| {} | {} | {} | {} | {:.2} | {:.2} | {:.1} |\n",
+            q.scene, q.path, q.method, q.denoise, q.psnr_db, q.ms_per_frame, q.mpix_per_s
         );
     }
-    for peer in [Some(&p.copy), p.opencv.as_ref()].into_iter().flatten() {
+    for peer in std::iter::once(&p.copy).chain(&p.opencv) {
         md += &format!(
-            "| {} | | | {} | {:.2} | {:.1} |\n",
+            "| {} | {} | | | {} | {:.2} | {:.1} |\n",
+            peer.scene,
             peer.what,
             peer.psnr_db.map_or("–".into(), |v| format!("{v:.2}")),
             peer.ms_per_frame,
