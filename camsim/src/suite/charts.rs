@@ -141,13 +141,7 @@ fn draw_pareto(r: &SuiteResults, path: &Path) -> Drawn {
                 .label(*library)
                 .legend(move |(x, y)| Circle::new((x + 9, y), 5, colour.filled()));
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::LowerLeft)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK.mix(0.4))
-            .label_font((FONT, 12))
-            .draw()?;
+        legend(&mut chart, SeriesLabelPosition::LowerLeft, 12)?;
     }
     root.present()?;
     Ok(())
@@ -222,13 +216,7 @@ fn draw_fixed_vs_float(r: &SuiteResults, path: &Path) -> Drawn {
             ))
             .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], colour.filled()));
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK.mix(0.4))
-        .label_font((FONT, 12))
-        .draw()?;
+    legend(&mut chart, SeriesLabelPosition::UpperLeft, 12)?;
 
     let speeds: Vec<_> = f
         .speed
@@ -347,13 +335,7 @@ fn draw_dof(r: &SuiteResults, path: &Path) -> Drawn {
             .collect();
         chart.draw_series(DashedLineSeries::new(approx, 6, 4, colour.stroke_width(2)))?;
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK.mix(0.4))
-        .label_font((FONT, 12))
-        .draw()?;
+    legend(&mut chart, SeriesLabelPosition::UpperLeft, 12)?;
 
     let mut chart = ChartBuilder::on(&right)
         .caption(
@@ -465,30 +447,12 @@ fn draw_awb(r: &SuiteResults, path: &Path) -> Drawn {
         ),
         r,
     )?;
-    let mut illuminants: Vec<&str> = Vec::new();
-    let mut methods: Vec<&str> = Vec::new();
-    for p in &a.points {
-        if !illuminants.contains(&p.illuminant.as_str()) {
-            illuminants.push(&p.illuminant);
-        }
-        if !methods.contains(&p.method.as_str()) {
-            methods.push(&p.method);
-        }
-    }
+    let illuminants = distinct(a.points.iter().map(|p| p.illuminant.as_str()));
+    let methods = distinct(a.points.iter().map(|p| p.method.as_str()));
     let worst = a.points.iter().map(|p| p.error_deg).fold(1.0, f64::max);
     let panels = body.split_evenly((1, a.scenes.len().max(1)));
     for (panel, (scene, _)) in panels.iter().zip(&a.scenes) {
-        let names = illuminants.clone();
-        let label = move |x: &f64| -> String {
-            let i = x.round();
-            if (x - i).abs() < 1e-6 && i >= 0.0 {
-                names
-                    .get(i as usize)
-                    .map_or(String::new(), |n| n.to_string())
-            } else {
-                String::new()
-            }
-        };
+        let label = category_labels(illuminants.clone());
         let mut chart = ChartBuilder::on(panel)
             .caption(scene.as_str(), (FONT, 17))
             .margin(12)
@@ -528,13 +492,7 @@ fn draw_awb(r: &SuiteResults, path: &Path) -> Drawn {
                     Rectangle::new([(x, y - 5), (x + 14, y + 5)], colour.filled())
                 });
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK.mix(0.4))
-            .label_font((FONT, 12))
-            .draw()?;
+        legend(&mut chart, SeriesLabelPosition::UpperRight, 12)?;
     }
     root.present()?;
     Ok(())
@@ -561,18 +519,8 @@ fn draw_pipeline(r: &SuiteResults, path: &Path) -> Drawn {
         (12, 2),
         (FONT, 13).into_font().color(&BLACK.mix(0.8)),
     ))?;
-    let mut scenes: Vec<&str> = Vec::new();
-    for q in &p.points {
-        if !scenes.contains(&q.scene.as_str()) {
-            scenes.push(&q.scene);
-        }
-    }
-    let mut methods: Vec<&str> = Vec::new();
-    for q in &p.points {
-        if !methods.contains(&q.method.as_str()) {
-            methods.push(&q.method);
-        }
-    }
+    let scenes = distinct(p.points.iter().map(|q| q.scene.as_str()));
+    let methods = distinct(p.points.iter().map(|q| q.method.as_str()));
     // One speed axis for every panel, so they compare.
     let speeds = p
         .points
@@ -663,13 +611,7 @@ fn draw_pipeline(r: &SuiteResults, path: &Path) -> Drawn {
                 .label("OpenCV's pipeline (bilinear; no defects, shading or denoise)")
                 .legend(move |(x, y)| Cross::new((x + 9, y), 6, grey.stroke_width(2)));
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK.mix(0.4))
-            .label_font((FONT, 11))
-            .draw()?;
+        legend(&mut chart, SeriesLabelPosition::UpperLeft, 11)?;
     }
     root.present()?;
     Ok(())
@@ -690,16 +632,8 @@ fn draw_calibration(r: &SuiteResults, path: &Path) -> Drawn {
         "Colour calibration: CIE 2000 error of the fitted camera-to-XYZ mapping (lower is better)",
         r,
     )?;
-    let mut cameras: Vec<&str> = Vec::new();
-    let mut illuminants: Vec<&str> = Vec::new();
-    for f in &c.fits {
-        if !cameras.contains(&f.camera.as_str()) {
-            cameras.push(&f.camera);
-        }
-        if !illuminants.contains(&f.illuminant.as_str()) {
-            illuminants.push(&f.illuminant);
-        }
-    }
+    let cameras = distinct(c.fits.iter().map(|f| f.camera.as_str()));
+    let illuminants = distinct(c.fits.iter().map(|f| f.illuminant.as_str()));
     type Errors = fn(&super::CalibrationFit) -> &[f64];
     let variants: [(&str, Errors); 4] = [
         ("3x3, in-sample", |f| &f.matrix),
@@ -714,17 +648,7 @@ fn draw_calibration(r: &SuiteResults, path: &Path) -> Drawn {
         .flat_map(|f| variants.iter().map(move |(_, get)| mean(get(f))))
         .fold(0.5, f64::max);
     let (top, bottom) = body.split_vertically(430);
-    let names = illuminants.clone();
-    let label = move |x: &f64| -> String {
-        let i = x.round();
-        if (x - i).abs() < 1e-6 && i >= 0.0 {
-            names
-                .get(i as usize)
-                .map_or(String::new(), |n| n.to_string())
-        } else {
-            String::new()
-        }
-    };
+    let label = category_labels(illuminants.clone());
     for (panel, camera) in top
         .split_evenly((1, cameras.len().max(1)))
         .iter()
@@ -766,13 +690,7 @@ fn draw_calibration(r: &SuiteResults, path: &Path) -> Drawn {
                 Rectangle::new([(x, y - 5), (x + 14, y + 5)], colour.filled())
             });
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK.mix(0.4))
-            .label_font((FONT, 11))
-            .draw()?;
+        legend(&mut chart, SeriesLabelPosition::UpperLeft, 11)?;
     }
     let patch_max = c
         .fits
@@ -845,12 +763,7 @@ fn draw_failures(r: &SuiteResults, path: &Path) -> Drawn {
         r,
     )?;
     let panels = body.split_evenly((1, 3));
-    let mut methods: Vec<&str> = Vec::new();
-    for b in &f.zone_plate_bands {
-        if !methods.contains(&b.method.as_str()) {
-            methods.push(&b.method);
-        }
-    }
+    let methods = distinct(f.zone_plate_bands.iter().map(|b| b.method.as_str()));
     let colour_of =
         |m: &str| PALETTE[methods.iter().position(|x| *x == m).unwrap_or(0) % PALETTE.len()];
     type Measure = fn(&super::ZonePlateBand) -> f64;
@@ -904,17 +817,12 @@ fn draw_failures(r: &SuiteResults, path: &Path) -> Drawn {
                     PathElement::new([(x, y), (x + 18, y)], colour.stroke_width(2))
                 });
         }
-        chart
-            .configure_series_labels()
-            .position(if axis.starts_with("CPSNR") {
-                SeriesLabelPosition::UpperRight
-            } else {
-                SeriesLabelPosition::UpperLeft
-            })
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK.mix(0.4))
-            .label_font((FONT, 11))
-            .draw()?;
+        let corner = if axis.starts_with("CPSNR") {
+            SeriesLabelPosition::UpperRight
+        } else {
+            SeriesLabelPosition::UpperLeft
+        };
+        legend(&mut chart, corner, 11)?;
     }
     let worst = f.noise.iter().map(|q| q.noise_lsb).fold(0.5, f64::max);
     // ISO on a log axis in stops above 100 (plotters' log axis crowds its ticks).
@@ -969,13 +877,7 @@ fn draw_failures(r: &SuiteResults, path: &Path) -> Drawn {
                 });
         }
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK.mix(0.4))
-        .label_font((FONT, 11))
-        .draw()?;
+    legend(&mut chart, SeriesLabelPosition::UpperLeft, 11)?;
     root.present()?;
     Ok(())
 }
@@ -1062,13 +964,7 @@ fn draw_render(r: &SuiteResults, path: &Path) -> Drawn {
                 }))?;
             }
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK.mix(0.4))
-            .label_font((FONT, 12))
-            .draw()?;
+        legend(&mut chart, SeriesLabelPosition::UpperRight, 12)?;
     }
     let slowest = rs
         .features
@@ -1107,4 +1003,45 @@ fn draw_render(r: &SuiteResults, path: &Path) -> Drawn {
     }
     root.present()?;
     Ok(())
+}
+
+/// The legend every chart draws: framed, on a pale background, at `corner`.
+fn legend<'a, DB: DrawingBackend + 'a, CT: plotters::coord::CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    corner: SeriesLabelPosition,
+    size: u32,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    chart
+        .configure_series_labels()
+        .position(corner)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK.mix(0.4))
+        .label_font((FONT, size))
+        .draw()
+}
+
+/// The distinct values of `items`, in the order they first appear.
+fn distinct<'a>(items: impl Iterator<Item = &'a str>) -> Vec<&'a str> {
+    let mut seen: Vec<&str> = Vec::new();
+    for item in items {
+        if !seen.contains(&item) {
+            seen.push(item);
+        }
+    }
+    seen
+}
+
+/// Tick labels for categories placed at 0, 1, 2, ... on a numeric axis: the name at each
+/// whole number, nothing between.
+fn category_labels(names: Vec<&str>) -> impl Fn(&f64) -> String + '_ {
+    move |x: &f64| {
+        let i = x.round();
+        if (x - i).abs() < 1e-6 && i >= 0.0 {
+            names
+                .get(i as usize)
+                .map_or(String::new(), |n| n.to_string())
+        } else {
+            String::new()
+        }
+    }
 }
