@@ -1684,12 +1684,23 @@ pub fn readme_blocks(r: &SuiteResults) -> Vec<(&'static str, String)> {
         );
     }
     features += &format!("\n{}. {provenance}\n", rs.feature_setup);
+    let mut convergence =
+        "| renderer | camera | spp | seconds (one thread) | RMSE |\n|---|---|---|---|---|\n"
+            .to_string();
+    for q in &rs.convergence {
+        convergence += &format!(
+            "| {} | {} | {} | {:.3} | {:.4} |\n",
+            q.renderer, q.camera, q.spp, q.seconds, q.rmse
+        );
+    }
+    convergence += &format!("\n{}. {provenance}\n", rs.convergence_setup);
     vec![
         ("provenance", provenance + "\n"),
         ("demosaic", demosaic),
         ("pipeline", pipeline),
         ("isp-speed", speed),
         ("features", features),
+        ("convergence", convergence),
     ]
 }
 
