@@ -526,7 +526,7 @@ pub fn execute(
 ) -> Result<(IspReport, Image), IspError> {
     let linear = matches!(raw, Input::Linear(_));
     let config = *config;
-    let (demosaic, distortion, wb_gains) = (config.demosaic, config.distortion, config.wb_gains);
+    let (distortion, wb_gains) = (config.distortion, config.wb_gains);
     let (w, h) = (raw.width(), raw.height());
     let threads = run.threads.max(1);
     let mut out = vec![0u16; w * h * 3];
@@ -541,10 +541,59 @@ pub fn execute(
         Runner::new(&raw, &config, fixed, 16, threads)?.best_ms(&mut out, 1)?
     };
 
-    // Cumulative configurations, one stage more each, in pipeline order; the base is what
-    // always runs. `true` marks the stages after demosaicing.
+    let steps = cumulative_steps(&config, linear);
+    let stages = stage_names(&config, linear);
+    let mut stage_ms = Vec::new();
+    if run.stage_times {
+        let mut previous = 0.0;
+        let mut scratch_out = vec![0u8; w * h * 3];
+        for Step {
+            name, config: c, ..
+        } in &steps
+        {
+            let ms = Runner::new(&raw, c, fixed, 8, threads)?.best_ms(&mut scratch_out, 3)?;
+            stage_ms.push((*name, (ms - previous).max(0.0)));
+            previous = ms;
+        }
+    }
+    let report = IspReport {
+        stages,
+        awb: None,
+        wb_gains,
+        distortion: distortion
+            .filter(|d| !d.is_identity())
+            .map(|d| (d, d.window_rows(w, h))),
+        fixed,
+        stage_ms,
+        total_ms,
+        threads,
+        framing: None,
+        baseline_exposure: None,
+    };
+    let rgb = Image {
+        width: w,
+        height: h,
+        channels: 3,
+        bits: out_bits,
+        data: out,
+    };
+    Ok((report, rgb))
+}
+
+/// One stage that is on, for ablation: its name, whether it runs after demosaicing, and the
+/// configuration with it and every stage before it on.
+struct Step<'a> {
+    name: &'static str,
+    after_demosaic: bool,
+    config: IspConfig<'a>,
+}
+
+/// The stages `config` turns on, in pipeline order, each with the cumulative configuration up
+/// to it; the first is the base that always runs (black level, demosaic unless `linear`,
+/// encoding).
+fn cumulative_steps<'a>(config: &IspConfig<'a>, linear: bool) -> Vec<Step<'a>> {
     let mut c = IspConfig {
-        demosaic,
+        demosaic: config.demosaic,
         ..IspConfig::default()
     };
     let base = if linear {
@@ -579,52 +628,40 @@ pub fn execute(
     steps.push(("tone", config.tone != Look::Neutral.tone(), true, c));
     c.sharpen = config.sharpen;
     steps.push(("sharpening", config.sharpen > 0.0, true, c));
-    steps.retain(|s| s.1);
+    steps
+        .into_iter()
+        .filter(|s| s.1)
+        .map(|(name, _, after_demosaic, config)| Step {
+            name,
+            after_demosaic,
+            config,
+        })
+        .collect()
+}
+
+/// The names of the stages `config` runs, in pipeline order (the report's list and `camsim
+/// bench isp`'s), for a mosaic or, with `linear`, a frame that skips demosaicing.
+pub fn stage_names(config: &IspConfig<'_>, linear: bool) -> Vec<&'static str> {
+    let steps = cumulative_steps(config, linear);
     let mut stages = vec!["black level"];
-    stages.extend(steps[1..].iter().filter(|s| !s.2).map(|s| s.0));
+    stages.extend(
+        steps[1..]
+            .iter()
+            .filter(|s| !s.after_demosaic)
+            .map(|s| s.name),
+    );
     stages.push(if linear {
         "(linear input: no demosaicing)"
     } else {
-        demosaic.name()
+        config.demosaic.name()
     });
-    let before_encoding = |s: &&(&str, bool, bool, IspConfig)| s.2 && s.0 != "sharpening";
-    stages.extend(steps[1..].iter().filter(before_encoding).map(|s| s.0));
+    let before_encoding = |s: &&Step| s.after_demosaic && s.name != "sharpening";
+    stages.extend(steps[1..].iter().filter(before_encoding).map(|s| s.name));
     stages.push("sRGB encode");
     if config.sharpen > 0.0 {
         stages.push("sharpening");
     }
-    let mut stage_ms = Vec::new();
-    if run.stage_times {
-        let mut previous = 0.0;
-        let mut scratch_out = vec![0u8; w * h * 3];
-        for (name, _, _, c) in &steps {
-            let ms = Runner::new(&raw, c, fixed, 8, threads)?.best_ms(&mut scratch_out, 3)?;
-            stage_ms.push((*name, (ms - previous).max(0.0)));
-            previous = ms;
-        }
-    }
-    let report = IspReport {
-        stages,
-        awb: None,
-        wb_gains,
-        distortion: distortion
-            .filter(|_| lens_on)
-            .map(|d| (d, d.window_rows(w, h))),
-        fixed,
-        stage_ms,
-        total_ms,
-        threads,
-        framing: None,
-        baseline_exposure: None,
-    };
-    let rgb = Image {
-        width: w,
-        height: h,
-        channels: 3,
-        bits: out_bits,
-        data: out,
-    };
-    Ok((report, rgb))
+    stages
 }
 
 /// A built pipeline (float or fixed) and the scratch of each band, ready to run a frame

@@ -9,7 +9,7 @@ use camsim::Error;
 use clap::{Args, Subcommand};
 use host_tracer::render_bench::{bench, table, BenchSettings};
 
-use camsim::develop::{with_prepared, RawInput, Runner};
+use camsim::develop::{self, with_prepared, RawInput, Runner};
 use isp_core::pipeline::Input;
 
 use crate::args::{DemosaicArg, RenderFlags};
@@ -264,41 +264,7 @@ fn bench_isp(args: &BenchIspArgs) -> Result<String, Error> {
             },
             Input::Linear(_) => (None, Some("the input is linear (no Bayer stage)".into())),
         };
-        let mut stages = vec!["black level"];
-        if p.config.dpc.is_active() {
-            stages.push("defective pixels");
-        }
-        if p.config.lsc.is_some() {
-            stages.push("lens shading");
-        }
-        if p.config.gain != 1.0 {
-            stages.push("gain");
-        }
-        if p.config.wb_gains != [1.0; 3] {
-            stages.push("white balance");
-        }
-        if matches!(p.input, Input::Mosaic(_)) {
-            stages.push(p.config.demosaic.name());
-        }
-        if p.config.highlight_knee < 1.0 {
-            stages.push("highlights");
-        }
-        if p.config.distortion.is_some_and(|d| !d.is_identity()) {
-            stages.push("distortion correction");
-        }
-        if p.config.denoise > 0.0 {
-            stages.push("denoise");
-        }
-        if p.config.ccm != isp_core::pipeline::IDENTITY {
-            stages.push("colour matrix");
-        }
-        if p.config.tone != isp_core::tone::Look::Neutral.tone() {
-            stages.push("tone");
-        }
-        stages.push("sRGB encode");
-        if p.config.sharpen > 0.0 {
-            stages.push("sharpening");
-        }
+        let stages = develop::stage_names(&p.config, matches!(p.input, Input::Linear(_)));
         Ok(IspFigures {
             input: name,
             width: w,
