@@ -560,15 +560,9 @@ fn demosaic_suite(
         "depths": [8, 16],
     });
     let mut peer_versions = None;
-    match run_python(settings, include_str!("demosaic_peers.py"), &request) {
+    let script = include_str!("demosaic_peers.py");
+    match run_python::<DemosaicReply>(&settings.python, script, &request) {
         Ok(reply) => {
-            #[derive(Deserialize)]
-            struct Reply {
-                rows: Vec<DemosaicPoint>,
-                versions: serde_json::Value,
-            }
-            let reply: Reply = serde_json::from_value(reply)
-                .map_err(|e| Error::Message(format!("the demosaic peers' reply: {e}")))?;
             points.extend(reply.rows);
             peer_versions = Some(reply.versions);
         }
@@ -586,19 +580,9 @@ fn demosaic_suite(
             "tile": LEARNED_TILE,
             "depths": [8, 16],
         });
-        let learned = SuiteSettings {
-            python: settings.learned_python.clone(),
-            ..settings.clone()
-        };
-        match run_python(&learned, include_str!("demosaic_learned.py"), &request) {
+        let script = include_str!("demosaic_learned.py");
+        match run_python::<DemosaicReply>(&settings.learned_python, script, &request) {
             Ok(reply) => {
-                #[derive(Deserialize)]
-                struct Reply {
-                    rows: Vec<DemosaicPoint>,
-                    versions: serde_json::Value,
-                }
-                let reply: Reply = serde_json::from_value(reply)
-                    .map_err(|e| Error::Message(format!("the learned peer's reply: {e}")))?;
                 points.extend(reply.rows);
                 learned_versions = Some(reply.versions);
             }
@@ -638,18 +622,12 @@ fn count_images(folder: &Path, limit: Option<usize>) -> Result<usize, Error> {
 
 /// Runs `script` with the oracle Python and one JSON argument; its stdout parsed as JSON, or
 /// why it could not run.
-fn run_python(
-    settings: &SuiteSettings,
+fn run_python<R: serde::de::DeserializeOwned>(
+    python: &Path,
     script: &str,
     request: &serde_json::Value,
-) -> Result<serde_json::Value, String> {
-    let python = &settings.python;
-    if !python.exists() {
-        return Err(format!(
-            "no oracle Python at {} (scripts/test-all.sh creates .venv; or set CAMSIM_ORACLE_PYTHON)",
-            python.display()
-        ));
-    }
+) -> Result<R, String> {
+    python_present(python)?;
     let output = std::process::Command::new(python)
         .arg("-c")
         .arg(script)
@@ -664,6 +642,26 @@ fn run_python(
         ));
     }
     serde_json::from_slice(&output.stdout).map_err(|e| format!("the peer script's reply: {e}"))
+}
+
+/// Whether `python` exists, or why the peers cannot run.
+fn python_present(python: &Path) -> Result<(), String> {
+    if python.exists() {
+        Ok(())
+    } else {
+        Err(format!(
+            "no Python at {} (scripts/test-all.sh creates the oracle's .venv; or set \
+             CAMSIM_ORACLE_PYTHON)",
+            python.display()
+        ))
+    }
+}
+
+/// What the demosaicing peer scripts print.
+#[derive(Deserialize)]
+struct DemosaicReply {
+    rows: Vec<DemosaicPoint>,
+    versions: serde_json::Value,
 }
 
 /// Chart 2's scenes: the demo scene (ColorChecker, bokeh, motion, fringes) under its own D65
@@ -1123,17 +1121,15 @@ fn render_suite(
             })
             .collect::<Vec<_>>(),
     });
-    let reply = run_python(settings, include_str!("render_mitsuba.py"), &request);
+    #[derive(Deserialize)]
+    struct MitsubaReply {
+        rows: Vec<ConvergencePoint>,
+        version: String,
+    }
     let mut mitsuba = None;
-    match reply {
+    let script = include_str!("render_mitsuba.py");
+    match run_python::<MitsubaReply>(&settings.python, script, &request) {
         Ok(reply) => {
-            #[derive(Deserialize)]
-            struct Reply {
-                rows: Vec<ConvergencePoint>,
-                version: String,
-            }
-            let reply: Reply = serde_json::from_value(reply)
-                .map_err(|e| Error::Message(format!("the Mitsuba peer's reply: {e}")))?;
             convergence.extend(reply.rows);
             mitsuba = Some(reply.version);
         }
@@ -1392,12 +1388,7 @@ pub fn opencv_pipeline(
     repeats: u32,
     output: Option<&mut Vec<u8>>,
 ) -> Result<f64, String> {
-    if !python.exists() {
-        return Err(format!(
-            "no oracle Python at {} (scripts/test-all.sh creates .venv; or set CAMSIM_ORACLE_PYTHON)",
-            python.display()
-        ));
-    }
+    python_present(python)?;
     let mosaic = raw.mosaic();
     let (w, h) = (mosaic.width(), mosaic.height());
     let bytes: Vec<u8> = (0..h)
