@@ -6,7 +6,7 @@
 //! [`Demosaic`] names each way of running one of isp-core's [`Method`]s, and [`Demosaic::run`]
 //! is the one place the AVX2 build of the directional method is chosen at run time.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use isp_core::demosaic::directional::{directional, directional_fixed, scratch_len};
@@ -311,6 +311,28 @@ pub fn bench(
     bench_limited(dataset, bits, methods, BenchLimits::default(), progress)
 }
 
+/// The PNG images of an image set (`data/kodak`, `data/mcmaster`), sorted by name, the first
+/// `limit` of them (at least one) if given; an error if the folder has none.
+pub fn dataset_images(dataset: &Path, limit: Option<usize>) -> Result<Vec<PathBuf>, Error> {
+    let mut paths: Vec<_> = std::fs::read_dir(dataset)
+        .map_err(|e| raw_formats::FormatError::io(dataset, e))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")))
+        .collect();
+    paths.sort();
+    if let Some(n) = limit {
+        paths.truncate(n.max(1));
+    }
+    if paths.is_empty() {
+        return Err(Error::Option {
+            option: "--dataset",
+            value: dataset.display().to_string(),
+            allowed: "a folder with .png images".into(),
+        });
+    }
+    Ok(paths)
+}
+
 /// [`bench()`] within `limits` (fewer images, a smaller tile, a shorter timing: `camsim bench
 /// --quick`).
 pub fn bench_limited(
@@ -327,22 +349,7 @@ pub fn bench_limited(
             allowed: "2..=16384 pixels, and a timing that is a number".into(),
         });
     }
-    let mut paths: Vec<_> = std::fs::read_dir(dataset)
-        .map_err(|e| raw_formats::FormatError::io(dataset, e))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")))
-        .collect();
-    paths.sort();
-    if let Some(n) = limits.images {
-        paths.truncate(n.max(1));
-    }
-    if paths.is_empty() {
-        return Err(Error::Option {
-            option: "--dataset",
-            value: dataset.display().to_string(),
-            allowed: "a folder with .png images".into(),
-        });
-    }
+    let paths = dataset_images(dataset, limits.images)?;
     let scale: u16 = if bits == 8 { 1 } else { 257 };
     let peak = if bits == 8 { 255.0 } else { 65535.0 };
     let mut images = Vec::new();
