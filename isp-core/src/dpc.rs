@@ -196,14 +196,24 @@ pub(crate) fn correct_span(
         if lo < hi {
             // A non-empty interior means y is at least two rows from either edge.
             let rows = [mosaic.row(y - 2), mosaic.row(y), mosaic.row(y + 2)];
-            let mut flags = [false; DETECT_BLOCK];
+            let mut flags = [0u8; DETECT_BLOCK];
             for start in (lo..hi).step_by(DETECT_BLOCK) {
                 let n = DETECT_BLOCK.min(hi - start);
                 detect_interior(rows, start, threshold, &mut flags[..n]);
-                for (i, _) in flags[..n].iter().enumerate().filter(|f| *f.1) {
-                    let x = start + i;
-                    if let Some(v) = dynamic_replacement(raw, config, x, y, threshold) {
-                        out[x - x0] = v;
+                // Eight flags at a time, visiting only the set ones: a loop testing each flag
+                // took a tenth of the whole pipeline's time (a load, a compare and a branch
+                // per pixel, for the few pixels flagged).
+                for (k, eight) in flags[..n].chunks(8).enumerate() {
+                    let mut bytes = [0u8; 8];
+                    bytes[..eight.len()].copy_from_slice(eight);
+                    // Each flag is 0 or 1, so each set flag is one set bit.
+                    let mut set = u64::from_le_bytes(bytes);
+                    while set != 0 {
+                        let x = start + 8 * k + (set.trailing_zeros() / 8) as usize;
+                        set &= set - 1;
+                        if let Some(v) = dynamic_replacement(raw, config, x, y, threshold) {
+                            out[x - x0] = v;
+                        }
                     }
                 }
             }
@@ -231,13 +241,13 @@ pub(crate) fn correct_span(
 /// Pixels the vectorised detection handles at a time.
 const DETECT_BLOCK: usize = 128;
 
-/// Flags the pixels `x0..x0 + flags.len()` (all at least two from every frame edge) that
+/// Flags (1, else 0) the pixels `x0..x0 + flags.len()` (all at least two from every frame edge) that
 /// dynamic detection would replace: above the second-largest of the eight same-colour
 /// neighbours by more than `threshold`, or below the second-smallest by more. `rows` are rows
 /// `y - 2`, `y` and `y + 2`. Branch-free over contiguous slices so it vectorises; saturating
 /// `u16` sums give the comparisons of the `u32` ones in [`dynamic_replacement`].
 #[inline(always)]
-fn detect_interior(rows: [&[u16]; 3], x0: usize, threshold: u16, flags: &mut [bool]) {
+fn detect_interior(rows: [&[u16]; 3], x0: usize, threshold: u16, flags: &mut [u8]) {
     let n = flags.len();
     let tap = |r: usize, dx: usize| &rows[r][x0 + dx - 2..x0 + dx - 2 + n];
     let (nw, no, ne) = (tap(0, 0), tap(0, 2), tap(0, 4));
@@ -254,7 +264,8 @@ fn detect_interior(rows: [&[u16]; 3], x0: usize, threshold: u16, flags: &mut [bo
             min1 = min1.min(v);
         }
         let v = own[i];
-        flags[i] = (v > max2.saturating_add(threshold)) | (v.saturating_add(threshold) < min2);
+        flags[i] =
+            u8::from((v > max2.saturating_add(threshold)) | (v.saturating_add(threshold) < min2));
     }
 }
 
