@@ -75,7 +75,7 @@ const SUM_FLOOR: f32 = 1.0 / 65535.0;
 /// One-sided smoothing of the colour differences, centre first.
 const SMOOTH: [f32; 4] = [0.56, 0.35, 0.08, 0.01];
 /// [`SMOOTH`] in percent, for the integer method.
-const SMOOTH_PERCENT: [i64; 4] = [56, 35, 8, 1];
+const SMOOTH_PERCENT: [i32; 4] = [56, 35, 8, 1];
 
 /// Rows held by each ring buffer (powers of two), in the order [`Planes::split`] takes them:
 /// each is at least the span from the row a stage writes to the oldest row a later stage still
