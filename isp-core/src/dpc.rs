@@ -241,8 +241,8 @@ pub(crate) fn correct_span(
 /// Pixels the vectorised detection handles at a time.
 const DETECT_BLOCK: usize = 128;
 
-/// Flags (1, else 0) the pixels `x0..x0 + flags.len()` (all at least two from every frame edge) that
-/// dynamic detection would replace: above the second-largest of the eight same-colour
+/// Flags (1, else 0) the pixels `x0..x0 + flags.len()` (all at least two from every frame
+/// edge) that dynamic detection would replace: above the second-largest of the eight same-colour
 /// neighbours by more than `threshold`, or below the second-smallest by more. `rows` are rows
 /// `y - 2`, `y` and `y + 2`. Branch-free over contiguous slices so it vectorises; saturating
 /// `u16` sums give the comparisons of the `u32` ones in [`dynamic_replacement`].

@@ -4,7 +4,7 @@
 //! bits (8-bit input is multiplied by 257). Sums of samples are exact; ratios (the classifiers,
 //! the blend weights) are Q16 fractions; weighted means round half up. Every value stored or
 //! carried between steps fits 32 bits: the classifiers' statistics are formed from their
-//! inputs rounded to the top 12 or 14 bits of the largest (exact on small differences), and the
+//! inputs rounded to the top 13 or 14 bits of the largest (exact on small differences), and the
 //! numerators of the weighted means, which reach 2^46, are [`Wide`] values that exist only to
 //! be divided (`i64` on cores without an FPU; on x86-64 and AArch64 a 32-bit low word with an
 //! `f32` estimate, the same quotients in 32-bit lanes). The float method's small constants are
@@ -137,8 +137,9 @@ fn from_working<T: IntSample>(v: i32) -> T {
 /// `i32`; only these numerators do not.
 ///
 /// [`Exact`] holds it as an `i64`. [`Estimated`] holds its low 32 bits (wrapping) beside an
-/// `f32` estimate, and divides by rounding the estimated quotient and correcting it by one
-/// either way from the exact remainder, which for a divisor below 2^31 fits the low word: the
+/// `f32` estimate, and divides by rounding the estimated quotient and lowering it by one where
+/// the exact remainder is negative (that remainder fits the low word for a divisor below
+/// 2^31): the
 /// same quotients in 32-bit lanes, sixteen to an AVX-512 vector instead of eight `i64`s (whose
 /// multiplies and conversions took most of the method's time). `Native` is `Estimated` where
 /// the core has a floating-point unit (x86-64, AArch64), else `Exact`.
@@ -222,13 +223,7 @@ impl Wide for Estimated {
     /// and its sign says whether `q` is the floor or one above it.
     #[inline(always)]
     fn floor_div(self, d: i32) -> i32 {
-        let q = nearest(self.estimate / d as f32);
-        let r = self.low.wrapping_sub(q.wrapping_mul(d));
-        if r < 0 {
-            q.wrapping_sub(1)
-        } else {
-            q
-        }
+        floor_from(nearest(self.estimate / d as f32), self.low, d)
     }
     /// As [`Estimated::floor_div`] on `2 n + d` over `2 d`, whose quotient is `n / d + 1/2`:
     /// the estimate is divided and the half added after, not doubled and offset first.
@@ -236,13 +231,20 @@ impl Wide for Estimated {
     fn round_div(self, d: i32) -> i32 {
         // The half is added apart: 1.5 x 2^23 + 0.5 is not an `f32`.
         let q = nearest(self.estimate / d as f32 + 0.5);
-        let (n, d) = (self.low.wrapping_mul(2).wrapping_add(d), 2 * d);
-        let r = n.wrapping_sub(q.wrapping_mul(d));
-        if r < 0 {
-            q.wrapping_sub(1)
-        } else {
-            q
-        }
+        floor_from(q, self.low.wrapping_mul(2).wrapping_add(d), 2 * d)
+    }
+}
+
+/// `floor(n / d)` from `q`, the nearest integer to an estimate of it within 3/4: `q`, or one
+/// less where the remainder `n - q d` is negative. `n` is the numerator's low word; the
+/// remainder, within `3 d / 4` of 0, is exact in it.
+#[inline(always)]
+fn floor_from(q: i32, n: i32, d: i32) -> i32 {
+    let r = n.wrapping_sub(q.wrapping_mul(d));
+    if r < 0 {
+        q.wrapping_sub(1)
+    } else {
+        q
     }
 }
 
@@ -368,8 +370,8 @@ fn relative_weight<W: Wide>(least: i32, s: i32) -> i32 {
 fn ratio<W: Wide>(a: i32, b: i32) -> i32 {
     let sum = a + b;
     // Numerator < 2^47 from an exact product and a sum, its estimate within 2^-8 of the
-    // divisor; quotient <= 2^16. Both arms computed,
-    // so the loops calling this vectorise (a select, not a branch).
+    // divisor; quotient <= 2^16. Both arms computed, so the loops calling this vectorise (a
+    // select, not a branch).
     let q = W::product(a, ONE)
         .plus(W::of(sum >> 1))
         .floor_div(larger(sum, 1));
