@@ -382,6 +382,11 @@ pub trait OutputSample: Copy + 'static {
     fn from_encoded(v: f32) -> Self;
     /// From an integer code of [`Self::BITS`] bits (the fixed path).
     fn from_code(v: u32) -> Self;
+    /// The samples as bytes, where they are bytes (`u8`): for encoders that write bytes.
+    #[doc(hidden)]
+    fn as_bytes_mut(_samples: &mut [Self]) -> Option<&mut [u8]> {
+        None
+    }
 }
 
 impl OutputSample for u8 {
@@ -394,6 +399,9 @@ impl OutputSample for u8 {
     #[inline]
     fn from_code(v: u32) -> Self {
         v.min(255) as u8
+    }
+    fn as_bytes_mut(samples: &mut [Self]) -> Option<&mut [u8]> {
+        Some(samples)
     }
 }
 
@@ -562,6 +570,7 @@ impl<'a> FloatPipeline<'a> {
             scratch,
             out,
             planar::run_directional_general,
+            planar::encode_row,
         )
     }
 
@@ -582,9 +591,15 @@ impl<'a> FloatPipeline<'a> {
         scratch: &mut [f32],
         out: &mut RgbViewMut<'_, O>,
     ) -> Result<(), IspError> {
-        run_planar_or_engine(self, input, rows, scratch, out, |p, r, y, s, o| {
-            planar::run_directional_avx2(p, r, y, s, o)
-        })
+        run_planar_or_engine(
+            self,
+            input,
+            rows,
+            scratch,
+            out,
+            |p, r, y, s, o| planar::run_directional_avx2(p, r, y, s, o),
+            planar::encode_row,
+        )
     }
 
     /// As [`FloatPipeline::run_input`], compiled for AVX-512 (F, BW, VL and DQ): the same
@@ -608,9 +623,15 @@ impl<'a> FloatPipeline<'a> {
         if self.method() != Method::Directional {
             return self.run_input_avx2(input, rows, scratch, out);
         }
-        run_planar_or_engine(self, input, rows, scratch, out, |p, r, y, s, o| {
-            planar::run_directional_avx512(p, r, y, s, o)
-        })
+        run_planar_or_engine(
+            self,
+            input,
+            rows,
+            scratch,
+            out,
+            |p, r, y, s, o| planar::run_directional_avx512(p, r, y, s, o),
+            planar::encode_row,
+        )
     }
 
     /// As [`FloatPipeline::run_input`], always on the general streaming engine, never the
@@ -918,7 +939,14 @@ impl<'a> FixedPipeline<'a> {
         scratch: &mut [u16],
         out: &mut RgbViewMut<'_, O>,
     ) -> Result<(), IspError> {
-        self.run_input_inlined(input, rows, scratch, out, planar::run_directional_general)
+        self.run_input_inlined(
+            input,
+            rows,
+            scratch,
+            out,
+            planar::run_directional_general,
+            planar::encode_row,
+        )
     }
 
     /// [`FixedPipeline::run_input`]'s body, inlined into each entry so that the AVX2 one
@@ -937,9 +965,10 @@ impl<'a> FixedPipeline<'a> {
             &mut [u16],
             &mut RgbViewMut<'_, O>,
         ) -> Result<(), IspError>,
+        encode: impl Fn(&Self, &[u16], crate::demosaic::planar::Halves, &mut [O]),
     ) -> Result<(), IspError> {
         self.check_output_depth::<O>()?;
-        run_planar_or_engine(self, input, rows, scratch, out, directional)
+        run_planar_or_engine(self, input, rows, scratch, out, directional, encode)
     }
 
     /// As [`FixedPipeline::run_input`], compiled for AVX2: the same output, faster (the
@@ -959,9 +988,29 @@ impl<'a> FixedPipeline<'a> {
         scratch: &mut [u16],
         out: &mut RgbViewMut<'_, O>,
     ) -> Result<(), IspError> {
-        self.run_input_inlined(input, rows, scratch, out, |p, r, y, s, o| {
-            planar::run_directional_avx2(p, r, y, s, o)
-        })
+        self.run_input_avx2_encoding(input, rows, scratch, out, planar::encode_row)
+    }
+
+    /// [`FixedPipeline::run_input_avx2`] with `encode` as the encoding of a row (of the
+    /// methods other than directional).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn run_input_avx2_encoding<O: OutputSample>(
+        &self,
+        input: Input<'_>,
+        rows: Range<usize>,
+        scratch: &mut [u16],
+        out: &mut RgbViewMut<'_, O>,
+        encode: impl Fn(&Self, &[u16], crate::demosaic::planar::Halves, &mut [O]),
+    ) -> Result<(), IspError> {
+        self.run_input_inlined(
+            input,
+            rows,
+            scratch,
+            out,
+            |p, r, y, s, o| planar::run_directional_avx2(p, r, y, s, o),
+            encode,
+        )
     }
 
     /// As [`FixedPipeline::run_input`], compiled for AVX-512 (F, BW, VL and DQ): the same
@@ -982,11 +1031,20 @@ impl<'a> FixedPipeline<'a> {
         out: &mut RgbViewMut<'_, O>,
     ) -> Result<(), IspError> {
         if self.method != Method::Directional {
-            return self.run_input_avx2(input, rows, scratch, out);
+            // The other methods' loops as AVX2 compiles them (faster here than AVX-512's),
+            // with the AVX-512 encoder called once per row.
+            return self.run_input_avx2_encoding(input, rows, scratch, out, |p, planes, h, o| {
+                planar::encode_row_avx512(p, planes, h, o)
+            });
         }
-        self.run_input_inlined(input, rows, scratch, out, |p, r, y, s, o| {
-            planar::run_directional_avx512(p, r, y, s, o)
-        })
+        self.run_input_inlined(
+            input,
+            rows,
+            scratch,
+            out,
+            |p, r, y, s, o| planar::run_directional_avx512(p, r, y, s, o),
+            planar::encode_row,
+        )
     }
 
     /// As [`FixedPipeline::run_input`], always on the general streaming engine, never the
@@ -1509,6 +1567,8 @@ impl<A: Path> Engine<'_, '_, A> {
 ///
 /// `directional` runs the planar schedule's directional method (out of line: see
 /// `planar::run_directional_general`); each entry passes the one compiled for its target.
+/// `encode` is the other methods' encoding of a row (`planar::encode_row`, or the AVX-512
+/// encoder, called once per row).
 #[inline(always)]
 fn run_planar_or_engine<A: planar::Planar, O: OutputSample>(
     path: &A,
@@ -1523,6 +1583,7 @@ fn run_planar_or_engine<A: planar::Planar, O: OutputSample>(
         &mut [A::P],
         &mut RgbViewMut<'_, O>,
     ) -> Result<(), IspError>,
+    encode: impl Fn(&A, &[A::P], crate::demosaic::planar::Halves, &mut [O]),
 ) -> Result<(), IspError> {
     match input {
         Input::Mosaic(raw) if planar::takes::<A, O>(path, &raw) => {
@@ -1542,7 +1603,7 @@ fn run_planar_or_engine<A: planar::Planar, O: OutputSample>(
             }
             match path.method() {
                 Method::Directional => directional(path, &raw, rows, scratch, out),
-                _ => planar::run(path, &raw, rows, scratch, out),
+                _ => planar::run(path, &raw, rows, scratch, out, encode),
             }
         }
         _ => run_rows(path, input, rows, scratch, out),

@@ -6,6 +6,9 @@
 
 use crate::math;
 
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod avx512;
+
 /// Linear value above which the power segment applies.
 pub const LINEAR_THRESHOLD: f32 = 0.003_130_8;
 /// Encoded value above which the power segment applies.
@@ -57,7 +60,9 @@ const HIGH_ENTRIES: usize = 65536 / 16 + 1;
 /// (the curve rises by under one 8-bit code per 16 inputs, 0.8 at its steepest), which gives
 /// the interpolated table's codes exactly with one load and a compare (one entry rather than
 /// two byte tables: the pipeline's vectorised loops gather it lane by lane, and half the
-/// loads took a tenth off the fixed MHC pipeline).
+/// loads took a tenth off the fixed MHC pipeline). Beside it, 384 `u16` code thresholds in
+/// the order a binary search reads them, for the AVX-512 encoder, which picks them per lane
+/// from registers instead of loading per sample.
 #[derive(Clone)]
 pub struct EncodeLut {
     low: [u32; LOW_ENTRIES],
@@ -65,8 +70,16 @@ pub struct EncodeLut {
     /// 8-bit output: the code of input `16 * i` in the low byte, and in the high byte the
     /// offset in run `i` from which the code is one more (16: none).
     runs8: [u16; RUNS],
+    /// 8-bit output: the code thresholds (the smallest input of each code) in the order a
+    /// binary search over the codes reads them, for the vectorised encoding (see
+    /// [`EncodeLut::search8_tables`]).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    search8: [[u16; 32]; SEARCH8_TABLES],
     max: u32,
 }
+
+/// Tables of 32 thresholds for the eight steps of a binary search over the 8-bit codes.
+const SEARCH8_TABLES: usize = 12;
 
 /// Runs of 16 inputs in the 16-bit linear range.
 const RUNS: usize = 65536 / 16;
@@ -112,6 +125,7 @@ impl EncodeLut {
             low,
             high,
             runs8: [16 << 8; RUNS],
+            search8: [[u16::MAX; 32]; SEARCH8_TABLES],
             max,
         };
         if max == 255 {
@@ -123,8 +137,39 @@ impl EncodeLut {
                     .unwrap_or(16);
                 lut.runs8[run] = base as u16 | step << 8;
             }
+            lut.search8 = lut.search8_tables();
         }
         Ok(lut)
+    }
+
+    /// The thresholds of an 8-bit table's codes, arranged for a binary search: the search's
+    /// step `s` (from 7 down to 0) holds a code that is a multiple of 2^(s+1) and asks
+    /// whether the input reaches the threshold of `code + 2^s`, so its candidates are those
+    /// thresholds indexed by `code >> (s + 1)`: one for step 7 and 128 for step 0. Steps 7
+    /// to 2 take a table each, step 1 two, step 0 four. Threshold `k` is the smallest input
+    /// whose [`EncodeLut::lookup8`] code is at least `k`; the codes never fall as the input
+    /// rises, so the count of thresholds at or below an input is its code.
+    fn search8_tables(&self) -> [[u16; 32]; SEARCH8_TABLES] {
+        let mut threshold = [u16::MAX; 256];
+        threshold[0] = 0;
+        let mut next = 1;
+        for linear in 0..=u16::MAX {
+            let code = self.lookup8(linear) as usize;
+            while next <= code.min(255) {
+                threshold[next] = linear;
+                next += 1;
+            }
+        }
+        let mut tables = [[u16::MAX; 32]; SEARCH8_TABLES];
+        let mut first_table = 0;
+        for step in (0..8).rev() {
+            let candidates = 128 >> step;
+            for j in 0..candidates {
+                tables[first_table + j / 32][j % 32] = threshold[(j << (step + 1)) + (1 << step)];
+            }
+            first_table += candidates.div_ceil(32);
+        }
+        tables
     }
 
     /// Largest output value (255 or 65535).

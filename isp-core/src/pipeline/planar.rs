@@ -15,7 +15,8 @@
 //!   reflect-101 border the same loop as the interior.
 //! - The demosaiced row is three planes (R, G, B), each even half then odd half, one filter
 //!   (a tap table of `demosaic`) per plane and half; the colour matrix runs on the planes; the
-//!   encoding (table loads, the one gather) writes the interleaved output. The highlight
+//!   encoding (table loads, the one gather; in the fixed path's AVX-512 entries a search in
+//!   registers, [`srgb::avx512`]) writes the interleaved output. The highlight
 //!   stage, when on, is a scalar loop over the planes (it tests each pixel against the knee).
 //! - The fixed path keeps the general engine's `u64`/`i64` products in `u32`/`i32` lanes by
 //!   splitting each Q16 constant into its integer and fraction parts ([`MulQ16`],
@@ -30,7 +31,7 @@ use crate::demosaic::{reflect, Method};
 use crate::dpc;
 use crate::frame::{RawFrame, RgbViewMut};
 use crate::highlights::{self, KneeQ16};
-use crate::{ccm, IspError};
+use crate::{ccm, srgb, IspError};
 
 /// Narrowest frame the planar schedule takes; the padding reflects within the first and last
 /// four columns.
@@ -55,6 +56,15 @@ pub(super) trait Planar: Path<P: PartialOrd> {
     fn colour_matrix(m: &Self::Matrix, rgb: [Self::P; 3]) -> [Self::P; 3];
     /// The 8-bit sRGB code of a linear value.
     fn code8(&self, v: Self::P) -> u32;
+    /// Where [`Self::code8`] is [`srgb::EncodeLut::lookup8`] of `u16` samples (the fixed
+    /// path), that table and `planes` as `u16`: for the vectorised encoder.
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    fn lookup8_planes<'a>(
+        &'a self,
+        _planes: &'a [Self::P],
+    ) -> Option<(&'a srgb::EncodeLut, &'a [u16])> {
+        None
+    }
     /// The highlight stage's parameters.
     type Knee: Copy;
     /// The highlight stage's parameters, if it is on (fetched once per frame).
@@ -198,6 +208,10 @@ impl Planar for FixedPipeline<'_> {
         self.encode.lookup8(v)
     }
 
+    fn lookup8_planes<'a>(&'a self, planes: &'a [u16]) -> Option<(&'a srgb::EncodeLut, &'a [u16])> {
+        Some((&self.encode, planes))
+    }
+
     type Knee = KneeQ16;
 
     fn knee(&self) -> Option<KneeQ16> {
@@ -300,6 +314,7 @@ pub(super) fn run<A: Planar, O: OutputSample>(
     rows: Range<usize>,
     scratch: &mut [A::P],
     out: &mut RgbViewMut<'_, O>,
+    encode: impl Fn(&A, &[A::P], Halves, &mut [O]),
 ) -> Result<(), IspError> {
     let mosaic = raw.mosaic();
     let (w, h, pattern) = (mosaic.width(), mosaic.height(), mosaic.pattern());
@@ -342,6 +357,7 @@ pub(super) fn run<A: Planar, O: OutputSample>(
             planes,
             halves,
             out.row_mut(y - rows.start),
+            &encode,
         );
     }
     Ok(())
@@ -355,6 +371,7 @@ fn finish_row<A: Planar, O: OutputSample>(
     planes: &mut [A::P],
     halves: Halves,
     out: &mut [O],
+    encode: impl Fn(&A, &[A::P], Halves, &mut [O]),
 ) {
     let w = halves.even + halves.odd;
     if let Some(m) = matrix {
@@ -364,7 +381,7 @@ fn finish_row<A: Planar, O: OutputSample>(
             [*r, *g, *b] = A::colour_matrix(m, [*r, *g, *b]);
         }
     }
-    encode_row(path, planes, halves, out);
+    encode(path, planes, halves, out);
 }
 
 /// [`run_directional`] out of line, compiled for the baseline target.
@@ -378,7 +395,7 @@ pub(super) fn run_directional_general<A: Planar, O: OutputSample>(
     scratch: &mut [A::P],
     out: &mut RgbViewMut<'_, O>,
 ) -> Result<(), IspError> {
-    run_directional(path, raw, rows, scratch, out)
+    run_directional(path, raw, rows, scratch, out, encode_row)
 }
 
 /// [`run_directional`] out of line, compiled for AVX2.
@@ -392,7 +409,7 @@ pub(super) fn run_directional_avx2<A: Planar, O: OutputSample>(
     scratch: &mut [A::P],
     out: &mut RgbViewMut<'_, O>,
 ) -> Result<(), IspError> {
-    run_directional(path, raw, rows, scratch, out)
+    run_directional(path, raw, rows, scratch, out, encode_row)
 }
 
 /// [`run_directional`] out of line, compiled for AVX-512 (F, BW, VL, DQ).
@@ -406,7 +423,31 @@ pub(super) fn run_directional_avx512<A: Planar, O: OutputSample>(
     scratch: &mut [A::P],
     out: &mut RgbViewMut<'_, O>,
 ) -> Result<(), IspError> {
-    run_directional(path, raw, rows, scratch, out)
+    let encode = |path: &A, planes: &[A::P], halves: Halves, out: &mut [O]| {
+        encode_row_avx512(path, planes, halves, out)
+    };
+    run_directional(path, raw, rows, scratch, out, encode)
+}
+
+/// [`encode_row`] with AVX-512 (F and BW) where the path's encoding is the fixed path's
+/// 8-bit table: the same codes without a table load per sample
+/// ([`srgb::avx512::encode_halves8`]).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512bw")]
+pub(super) fn encode_row_avx512<A: Planar, O: OutputSample>(
+    path: &A,
+    planes: &[A::P],
+    halves: Halves,
+    out: &mut [O],
+) {
+    match (path.lookup8_planes(planes), O::as_bytes_mut(out)) {
+        (Some((lut, planes)), Some(bytes)) => {
+            let w = halves.even + halves.odd;
+            let [r, g, b] = [0, 1, 2].map(|c| &planes[c * w..(c + 1) * w]);
+            srgb::avx512::encode_halves8(lut, [r, g, b], halves.even, halves.odd, bytes)
+        }
+        _ => encode_row(path, planes, halves, out),
+    }
 }
 
 /// [`run`] with the directional method: the method's stream reads the prepared rows (as
@@ -420,6 +461,7 @@ fn run_directional<A: Planar, O: OutputSample>(
     rows: Range<usize>,
     scratch: &mut [A::P],
     out: &mut RgbViewMut<'_, O>,
+    encode: impl Fn(&A, &[A::P], Halves, &mut [O]),
 ) -> Result<(), IspError> {
     let mosaic = raw.mosaic();
     let (w, h, pattern) = (mosaic.width(), mosaic.height(), mosaic.pattern());
@@ -484,6 +526,7 @@ fn run_directional<A: Planar, O: OutputSample>(
             planes,
             halves,
             out.row_mut(y - rows.start),
+            &encode,
         );
     }
     Ok(())
@@ -632,7 +675,7 @@ fn prepare_row<A: Planar>(
 
 /// Encodes the planes to 8-bit sRGB, interleaving the halves into the output row.
 #[inline(always)]
-fn encode_row<A: Planar, O: OutputSample>(
+pub(super) fn encode_row<A: Planar, O: OutputSample>(
     path: &A,
     planes: &[A::P],
     halves: Halves,
