@@ -14,7 +14,9 @@
 //! (1.72 exactly), and its 1e-20 against division by zero (negligible on this scale) by
 //! handling zero exactly. Each value's bound is stated where it is formed.
 
-use super::{at, Arithmetic, Frame, Planes, Span, SMOOTH_PERCENT};
+use super::{
+    at, block_starts, lane, lanes, store, Arithmetic, Frame, Planes, Span, LANES, SMOOTH_PERCENT,
+};
 use crate::frame::{IntSample, MosaicView, RgbViewMut};
 use crate::IspError;
 
@@ -463,13 +465,27 @@ impl Frame {
     #[inline(always)]
     fn class_row_fixed<W: Wide>(&self, r: usize, p: &mut Planes<'_, i32>) {
         let t = self.class_taps(r, &p.mosaic);
-        let hv = t.green.out(p.class.row_mut(r));
-        for (i, class) in hv.iter_mut().enumerate() {
-            *class = line_class::<W>(at(&t.vertical, i), at(&t.horizontal, i));
-        }
-        let pq = t.other.out(p.class.row_mut(r));
-        for (i, class) in pq.iter_mut().enumerate() {
-            *class = line_class::<W>(at(&t.along_p, i), at(&t.along_q, i));
+        let lines = [
+            (t.green, t.vertical, t.horizontal),
+            (t.other, t.along_p, t.along_q),
+        ];
+        for (span, first, second) in lines {
+            let out = span.out(p.class.row_mut(r));
+            let n = out.len();
+            if n < LANES {
+                for (i, class) in out.iter_mut().enumerate() {
+                    *class = line_class::<W>(at(&first, i), at(&second, i));
+                }
+                continue;
+            }
+            for start in block_starts(n) {
+                let (a, b) = (lanes(&first, start), lanes(&second, start));
+                let mut block = [0; LANES];
+                for (j, class) in block.iter_mut().enumerate() {
+                    *class = line_class::<W>(lane(&a, j), lane(&b, j));
+                }
+                store(out, start, &block);
+            }
         }
     }
 
@@ -543,11 +559,28 @@ impl Frame {
     fn chroma_row_fixed<W: Wide>(&self, r: usize, p: &mut Planes<'_, i32>) {
         let t = self.chroma_taps(r, &p.mosaic, &p.green, &p.class);
         let out = t.span.out(p.opposite.row_mut(r));
-        for (i, opposite) in out.iter_mut().enumerate() {
-            let est_p = pair_estimate::<W>(at(&t.chroma_p, i), at(&t.green_p, i));
-            let est_q = pair_estimate::<W>(at(&t.chroma_q, i), at(&t.green_q, i));
-            let c = refined(t.class[i], at(&t.class_around, i));
-            *opposite = steered(t.green_p[2][i], c, est_p, est_q);
+        let n = out.len();
+        if n < LANES {
+            for (i, opposite) in out.iter_mut().enumerate() {
+                let class = (t.class[i], at(&t.class_around, i));
+                let p = (at(&t.chroma_p, i), at(&t.green_p, i));
+                let q = (at(&t.chroma_q, i), at(&t.green_q, i));
+                *opposite = opposite_site::<W>(class, p, q);
+            }
+            return;
+        }
+        for start in block_starts(n) {
+            let (class, around) = (lanes(&[t.class], start), lanes(&t.class_around, start));
+            let (chroma_p, green_p) = (lanes(&t.chroma_p, start), lanes(&t.green_p, start));
+            let (chroma_q, green_q) = (lanes(&t.chroma_q, start), lanes(&t.green_q, start));
+            let mut block = [0; LANES];
+            for (j, opposite) in block.iter_mut().enumerate() {
+                let class = (class[0][j], lane(&around, j));
+                let p = (lane(&chroma_p, j), lane(&green_p, j));
+                let q = (lane(&chroma_q, j), lane(&green_q, j));
+                *opposite = opposite_site::<W>(class, p, q);
+            }
+            store(out, start, &block);
         }
     }
 
@@ -559,17 +592,66 @@ impl Frame {
         let t = self.green_site_taps(r, &p.mosaic, &p.opposite, &p.green, &p.class);
         let [red, _, blue] = &mut p.out_rgb;
         let (red_g, blue_g) = (t.span.out(red), t.span.out(blue));
-        for i in 0..red_g.len() {
-            let c = refined(t.class[i], at(&t.class_around, i));
-            let (gv, gh) = (at(&t.green_v, i), at(&t.green_h, i));
-            let vertical = pair_estimate::<W>(at(&t.red_v, i), gv);
-            let horizontal = pair_estimate::<W>(at(&t.red_h, i), gh);
-            red_g[i] = steered(gv[2], c, vertical, horizontal);
-            let vertical = pair_estimate::<W>(at(&t.blue_v, i), gv);
-            let horizontal = pair_estimate::<W>(at(&t.blue_h, i), gh);
-            blue_g[i] = steered(gv[2], c, vertical, horizontal);
+        let n = red_g.len();
+        if n < LANES {
+            for i in 0..n {
+                let class = (t.class[i], at(&t.class_around, i));
+                let green = [at(&t.green_v, i), at(&t.green_h, i)];
+                let red = [at(&t.red_v, i), at(&t.red_h, i)];
+                let blue = [at(&t.blue_v, i), at(&t.blue_h, i)];
+                [red_g[i], blue_g[i]] = green_site::<W>(class, green, red, blue);
+            }
+            return;
+        }
+        for start in block_starts(n) {
+            let (class, around) = (lanes(&[t.class], start), lanes(&t.class_around, start));
+            let (green_v, green_h) = (lanes(&t.green_v, start), lanes(&t.green_h, start));
+            let (red_v, red_h) = (lanes(&t.red_v, start), lanes(&t.red_h, start));
+            let (blue_v, blue_h) = (lanes(&t.blue_v, start), lanes(&t.blue_h, start));
+            let mut out = [[0; LANES]; 2];
+            for j in 0..LANES {
+                let class = (class[0][j], lane(&around, j));
+                let green = [lane(&green_v, j), lane(&green_h, j)];
+                let red = [lane(&red_v, j), lane(&red_h, j)];
+                let blue = [lane(&blue_v, j), lane(&blue_h, j)];
+                [out[0][j], out[1][j]] = green_site::<W>(class, green, red, blue);
+            }
+            store(red_g, start, &out[0]);
+            store(blue_g, start, &out[1]);
         }
     }
+}
+
+/// The opposite chroma at one red or blue site: its classifier and the four around it, and
+/// along each diagonal (`p`, `q`) the chroma at -3, -1, 1, 3 and the green at -2..=2.
+#[inline(always)]
+fn opposite_site<W: Wide>(
+    class: (i32, [i32; 4]),
+    p: ([i32; 4], [i32; 5]),
+    q: ([i32; 4], [i32; 5]),
+) -> i32 {
+    let est_p = pair_estimate::<W>(p.0, p.1);
+    let est_q = pair_estimate::<W>(q.0, q.1);
+    steered(p.1[2], refined(class.0, class.1), est_p, est_q)
+}
+
+/// Red and blue at one green site: its classifier and the four around it, the green along
+/// the column and the row (offsets -2..=2), and red and blue along both (-3, -1, 1, 3).
+#[inline(always)]
+fn green_site<W: Wide>(
+    class: (i32, [i32; 4]),
+    green: [[i32; 5]; 2],
+    red: [[i32; 4]; 2],
+    blue: [[i32; 4]; 2],
+) -> [i32; 2] {
+    let c = refined(class.0, class.1);
+    let [gv, gh] = green;
+    let estimate = |along: [[i32; 4]; 2]| {
+        let vertical = pair_estimate::<W>(along[0], gv);
+        let horizontal = pair_estimate::<W>(along[1], gh);
+        steered(gv[2], c, vertical, horizontal)
+    };
+    [estimate(red), estimate(blue)]
 }
 
 /// The float method's `refined` for Q16 classifiers: `own` if it is further from one half
