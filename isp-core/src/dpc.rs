@@ -184,12 +184,12 @@ pub(crate) fn correct_span(
         // Rows two from the top and bottom, with no static defect near, give every pixel
         // eight usable neighbours (mirrored at the sides): the interior columns lo..hi take
         // the vectorised detection below, the pixels it flags and the two at each side
-        // `outlier_median`. Everything else takes the general rule.
+        // `sorted8`. Everything else takes the general rule.
         let rows = (y >= 2 && y + 2 < h && w >= 5 && !static_near)
             .then(|| [mosaic.row(y - 2), mosaic.row(y), mosaic.row(y + 2)]);
         // The dynamic rule where all eight neighbours are usable.
         let fast_rule = |rows, x| match row_neighbours(rows, x) {
-            Some((own, values)) => outlier_median(own, values, threshold),
+            Some((own, values)) => outlier_median(own, &sorted8(values), threshold),
             None => dynamic_replacement(raw, config, x, y, threshold),
         };
         let (lo, hi) = if rows.is_some() {
@@ -304,15 +304,14 @@ fn row_neighbours(rows: [&[u16]; 3], x: usize) -> Option<(u16, [u16; 8])> {
     Some((at(1, x)?, values))
 }
 
-/// The dynamic rule ([`dynamic_replacement`]) for a pixel `own` with eight usable neighbours
-/// `values`: their median if it is an outlier among them. A branch-free sort (Batcher's
-/// odd-even merge sort of eight, 19 exchanges) in place of the general rule's mirror tests,
-/// static-map searches and insertion sort: with threshold 4 on `camsim bench isp`'s noisy
-/// synthetic frame, where many pixels are flagged, the fixed MHC pipeline went from 17.5 to
-/// 10.3 ns per pixel; the four side pixels of each row had taken about 2 % of the directional
-/// pipeline's time at threshold 64.
+/// `values` sorted by a branch-free network (Batcher's odd-even merge sort of eight, 19
+/// exchanges), for pixels with eight usable neighbours: in place of the general rule's mirror
+/// tests, static-map searches and insertion sort, it took the fixed MHC pipeline from 17.5 to
+/// 10.3 ns per pixel with threshold 4 on `camsim bench isp`'s noisy synthetic frame, where
+/// many pixels are flagged (the four side pixels of each row had taken about 2 % of the
+/// directional pipeline's time at threshold 64).
 #[inline]
-fn outlier_median(own: u16, mut values: [u16; 8], threshold: u16) -> Option<u16> {
+fn sorted8(mut values: [u16; 8]) -> [u16; 8] {
     const EXCHANGES: [(usize, usize); 19] = [
         (0, 1),
         (2, 3),
@@ -338,10 +337,20 @@ fn outlier_median(own: u16, mut values: [u16; 8], threshold: u16) -> Option<u16>
         let (lo, hi) = (values[a].min(values[b]), values[a].max(values[b]));
         (values[a], values[b]) = (lo, hi);
     }
+    values
+}
+
+/// The dynamic rule's decision for a pixel `own` among its usable neighbours, `sorted` (at
+/// least three): their median if `own` is above the second largest or below the second
+/// smallest by more than `threshold`.
+#[inline]
+fn outlier_median(own: u16, sorted: &[u16], threshold: u16) -> Option<u16> {
+    let n = sorted.len();
+    let (second_least, second_largest) = (*sorted.get(1)?, *sorted.get(n.checked_sub(2)?)?);
     let (own, threshold) = (u32::from(own), u32::from(threshold));
-    let hot = own > u32::from(values[6]) + threshold;
-    let cold = own + threshold < u32::from(values[1]);
-    (hot || cold).then(|| median(&values))
+    let hot = own > u32::from(second_largest) + threshold;
+    let cold = own + threshold < u32::from(second_least);
+    (hot || cold).then(|| median(sorted))
 }
 
 /// The dynamic rule at `(x, y)`: the median of the usable neighbours if the pixel is an
@@ -360,9 +369,7 @@ fn dynamic_replacement(
     }
     let values = &mut values[..n];
     values.sort_unstable();
-    let hot = v as u32 > values[n - 2] as u32 + threshold as u32;
-    let cold = (v as u32) + (threshold as u32) < values[1] as u32;
-    (hot || cold).then(|| median(values))
+    outlier_median(v, values, threshold)
 }
 
 /// The usable same-colour neighbours of `(x, y)`: mirrored at the edges, leaving out the pixel
