@@ -15,7 +15,7 @@
 //! handling zero exactly. Each value's bound is stated where it is formed.
 
 use super::{
-    at, block_starts, lane, lanes, store, Arithmetic, Frame, Planes, Span, LANES, SMOOTH_PERCENT,
+    at, for_each_block, lane, store, Arithmetic, Blocks, Frame, Planes, Span, LANES, SMOOTH_PERCENT,
 };
 use crate::frame::{IntSample, MosaicView, RgbViewMut};
 use crate::IspError;
@@ -472,20 +472,27 @@ impl Frame {
         for (span, first, second) in lines {
             let out = span.out(p.class.row_mut(r));
             let n = out.len();
-            if n < LANES {
+            let (Some(first_blocks), Some(second_blocks)) =
+                (Blocks::new(&first, n), Blocks::new(&second, n))
+            else {
+                // Fewer than `LANES` sites.
                 for (i, class) in out.iter_mut().enumerate() {
                     *class = line_class::<W>(at(&first, i), at(&second, i));
                 }
                 continue;
-            }
-            for start in block_starts(n) {
-                let (a, b) = (lanes(&first, start), lanes(&second, start));
-                let mut block = [0; LANES];
-                for (j, class) in block.iter_mut().enumerate() {
-                    *class = line_class::<W>(lane(&a, j), lane(&b, j));
-                }
-                store(out, start, &block);
-            }
+            };
+            for_each_block(
+                n,
+                #[inline(always)]
+                |at| {
+                    let (a, b) = (first_blocks.at(at), second_blocks.at(at));
+                    let mut block = [0; LANES];
+                    for (j, class) in block.iter_mut().enumerate() {
+                        *class = line_class::<W>(lane(&a, j), lane(&b, j));
+                    }
+                    store(out, at, &block);
+                },
+            );
         }
     }
 
@@ -560,7 +567,24 @@ impl Frame {
         let t = self.chroma_taps(r, &p.mosaic, &p.green, &p.class);
         let out = t.span.out(p.opposite.row_mut(r));
         let n = out.len();
-        if n < LANES {
+        let blocks = (
+            Blocks::new(&[t.class], n),
+            Blocks::new(&t.class_around, n),
+            Blocks::new(&t.chroma_p, n),
+            Blocks::new(&t.green_p, n),
+            Blocks::new(&t.chroma_q, n),
+            Blocks::new(&t.green_q, n),
+        );
+        let (
+            Some(class),
+            Some(around),
+            Some(chroma_p),
+            Some(green_p),
+            Some(chroma_q),
+            Some(green_q),
+        ) = blocks
+        else {
+            // Fewer than `LANES` sites.
             for (i, opposite) in out.iter_mut().enumerate() {
                 let class = (t.class[i], at(&t.class_around, i));
                 let p = (at(&t.chroma_p, i), at(&t.green_p, i));
@@ -568,20 +592,24 @@ impl Frame {
                 *opposite = opposite_site::<W>(class, p, q);
             }
             return;
-        }
-        for start in block_starts(n) {
-            let (class, around) = (lanes(&[t.class], start), lanes(&t.class_around, start));
-            let (chroma_p, green_p) = (lanes(&t.chroma_p, start), lanes(&t.green_p, start));
-            let (chroma_q, green_q) = (lanes(&t.chroma_q, start), lanes(&t.green_q, start));
-            let mut block = [0; LANES];
-            for (j, opposite) in block.iter_mut().enumerate() {
-                let class = (class[0][j], lane(&around, j));
-                let p = (lane(&chroma_p, j), lane(&green_p, j));
-                let q = (lane(&chroma_q, j), lane(&green_q, j));
-                *opposite = opposite_site::<W>(class, p, q);
-            }
-            store(out, start, &block);
-        }
+        };
+        for_each_block(
+            n,
+            #[inline(always)]
+            |at| {
+                let (class, around) = (class.at(at), around.at(at));
+                let (chroma_p, green_p) = (chroma_p.at(at), green_p.at(at));
+                let (chroma_q, green_q) = (chroma_q.at(at), green_q.at(at));
+                let mut block = [0; LANES];
+                for (j, opposite) in block.iter_mut().enumerate() {
+                    let class = (class[0][j], lane(&around, j));
+                    let p = (lane(&chroma_p, j), lane(&green_p, j));
+                    let q = (lane(&chroma_q, j), lane(&green_q, j));
+                    *opposite = opposite_site::<W>(class, p, q);
+                }
+                store(out, at, &block);
+            },
+        );
     }
 
     /// Stage 6: red and blue at row `r`'s green pixels, into the output rows with what the
@@ -593,7 +621,20 @@ impl Frame {
         let [red, _, blue] = &mut p.out_rgb;
         let (red_g, blue_g) = (t.span.out(red), t.span.out(blue));
         let n = red_g.len();
-        if n < LANES {
+        let blocks = (
+            (Blocks::new(&[t.class], n), Blocks::new(&t.class_around, n)),
+            (Blocks::new(&t.green_v, n), Blocks::new(&t.green_h, n)),
+            (Blocks::new(&t.red_v, n), Blocks::new(&t.red_h, n)),
+            (Blocks::new(&t.blue_v, n), Blocks::new(&t.blue_h, n)),
+        );
+        let (
+            (Some(class), Some(around)),
+            (Some(green_v), Some(green_h)),
+            (Some(red_v), Some(red_h)),
+            (Some(blue_v), Some(blue_h)),
+        ) = blocks
+        else {
+            // Fewer than `LANES` sites.
             for i in 0..n {
                 let class = (t.class[i], at(&t.class_around, i));
                 let green = [at(&t.green_v, i), at(&t.green_h, i)];
@@ -602,23 +643,27 @@ impl Frame {
                 [red_g[i], blue_g[i]] = green_site::<W>(class, green, red, blue);
             }
             return;
-        }
-        for start in block_starts(n) {
-            let (class, around) = (lanes(&[t.class], start), lanes(&t.class_around, start));
-            let (green_v, green_h) = (lanes(&t.green_v, start), lanes(&t.green_h, start));
-            let (red_v, red_h) = (lanes(&t.red_v, start), lanes(&t.red_h, start));
-            let (blue_v, blue_h) = (lanes(&t.blue_v, start), lanes(&t.blue_h, start));
-            let mut out = [[0; LANES]; 2];
-            for j in 0..LANES {
-                let class = (class[0][j], lane(&around, j));
-                let green = [lane(&green_v, j), lane(&green_h, j)];
-                let red = [lane(&red_v, j), lane(&red_h, j)];
-                let blue = [lane(&blue_v, j), lane(&blue_h, j)];
-                [out[0][j], out[1][j]] = green_site::<W>(class, green, red, blue);
-            }
-            store(red_g, start, &out[0]);
-            store(blue_g, start, &out[1]);
-        }
+        };
+        for_each_block(
+            n,
+            #[inline(always)]
+            |at| {
+                let (class, around) = (class.at(at), around.at(at));
+                let (green_v, green_h) = (green_v.at(at), green_h.at(at));
+                let (red_v, red_h) = (red_v.at(at), red_h.at(at));
+                let (blue_v, blue_h) = (blue_v.at(at), blue_h.at(at));
+                let mut out = [[0; LANES]; 2];
+                for j in 0..LANES {
+                    let class = (class[0][j], lane(&around, j));
+                    let green = [lane(&green_v, j), lane(&green_h, j)];
+                    let red = [lane(&red_v, j), lane(&red_h, j)];
+                    let blue = [lane(&blue_v, j), lane(&blue_h, j)];
+                    [out[0][j], out[1][j]] = green_site::<W>(class, green, red, blue);
+                }
+                store(red_g, at, &out[0]);
+                store(blue_g, at, &out[1]);
+            },
+        );
     }
 }
 
