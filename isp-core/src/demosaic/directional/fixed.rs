@@ -112,6 +112,7 @@ impl<T: IntSample, W: Wide> Arithmetic for Fixed<T, W> {
     }
     #[inline(always)]
     fn output(frame: &Frame, r: usize, p: &mut Planes<'_, i32>, out: &mut [T]) {
+        frame.fill_known(r, p);
         frame.output_estimates_fixed::<W>(r, p);
         let [red, green, blue] = &p.out_rgb;
         frame.write_row([&**red, &**green, &**blue], out, from_working::<T>);
@@ -612,11 +613,10 @@ impl Frame {
         );
     }
 
-    /// Stage 6: red and blue at row `r`'s green pixels, into the output rows with what the
-    /// row already knows.
+    /// Stage 6: red and blue at row `r`'s green pixels, into the output rows (their
+    /// green-site halves).
     #[inline(always)]
     fn output_estimates_fixed<W: Wide>(&self, r: usize, p: &mut Planes<'_, i32>) {
-        self.fill_known(r, p);
         let t = self.green_site_taps(r, &p.mosaic, &p.opposite, &p.green, &p.class);
         let [red, _, blue] = &mut p.out_rgb;
         let (red_g, blue_g) = (t.span.out(red), t.span.out(blue));
