@@ -623,6 +623,35 @@ impl<'a, E> Planes<'a, E> {
     }
 }
 
+/// What output row `r` already knows: row `r` of the mosaic, the green estimate and the
+/// opposite colour, and which of them holds each plane's value at each site. The one
+/// statement of which colour comes from where, for [`Frame::fill_known`] and
+/// [`Frame::write_planes`].
+struct Known<'a, E> {
+    rows: [&'a [E]; 3],
+    green_parity: usize,
+    /// The plane (0 red, 2 blue) of the row's red or blue sites' own colour.
+    own: usize,
+}
+
+impl<'a, E> Known<'a, E> {
+    /// The row holding plane `c`'s (0 red, 1 green, 2 blue) values at the sites of
+    /// `parity`: the mosaic at a site's own colour, the green row for green at red and blue
+    /// sites, the opposite row for the other colour there; `None` for red and blue at green
+    /// sites, which stage 6 estimates into the output rows.
+    #[inline(always)]
+    fn row(&self, c: usize, parity: usize) -> Option<&'a [E]> {
+        let [mosaic, green, opposite] = self.rows;
+        match (parity == self.green_parity, c) {
+            (true, 1) => Some(mosaic),
+            (true, _) => None,
+            (false, 1) => Some(green),
+            (false, c) if c == self.own => Some(mosaic),
+            (false, _) => Some(opposite),
+        }
+    }
+}
+
 /// The frame's geometry in padded coordinates (`HALO` added on every side).
 #[derive(Clone, Copy)]
 pub(crate) struct Frame {
@@ -712,11 +741,11 @@ impl Span {
     }
 }
 
-/// Sites per block of [`lanes`]: one AVX-512 vector of `i32`.
+/// Sites per block of [`Blocks`]: one AVX-512 vector of `i32`.
 pub(super) const LANES: usize = 16;
 
 /// A block of [`LANES`] sites of a span: whole block `b` (sites `b * LANES..`), or the last
-/// [`LANES`] sites where the span is not a whole number of blocks (see [`blocks`]).
+/// [`LANES`] sites where the span is not a whole number of blocks (see [`for_each_block`]).
 #[derive(Clone, Copy)]
 pub(super) enum Block {
     /// Sites `b * LANES..(b + 1) * LANES`.
@@ -730,7 +759,7 @@ pub(super) enum Block {
 /// the same values (a stage writes only its own sites and reads nothing it writes). A loop
 /// over a span's sites ends in scalar code for 1 to 16 of them, which cost 10-20 times a
 /// vector site: about a sixth of the fixed method's time. Two loops, not one over a chained
-/// iterator: in the first the compiler knows each block is within the taps (see [`lanes`]).
+/// iterator: in the first the compiler knows each block is within the taps (see [`Blocks`]).
 #[inline(always)]
 pub(super) fn for_each_block(n: usize, mut f: impl FnMut(Block)) {
     for b in 0..n / LANES {
@@ -1086,24 +1115,33 @@ impl Frame {
         }
     }
 
-    /// Fills the output rows with what row `r` already knows: green at its green pixels, and
-    /// at its red and blue pixels the sample, the green and the opposite colour.
+    /// Row `r` of the mosaic, the green estimate and the opposite colour, as [`Known`].
+    #[inline(always)]
+    fn known<'a, E>(
+        &self,
+        r: usize,
+        [mosaic, green, opposite]: [&'a Ring<'_, E>; 3],
+    ) -> Known<'a, E> {
+        Known {
+            rows: [mosaic.row(r), green.row(r), opposite.row(r)],
+            green_parity: self.green_parity(r),
+            own: if self.red_row(r) { 0 } else { 2 },
+        }
+    }
+
+    /// Fills the output rows with what row `r` already knows (see [`Known`]), for
+    /// the interleaved output.
     #[inline(always)]
     fn fill_known<E: Copy>(&self, r: usize, p: &mut Planes<'_, E>) {
-        let gp = self.green_parity(r);
-        let (m, opposite, g) = (p.mosaic.row(r), p.opposite.row(r), p.green.row(r));
-        let [red, green, blue] = &mut p.out_rgb;
-        let span = Span::new(self, gp, HALO);
-        span.out(green).copy_from_slice(span.tap(m, 0));
-        let span = Span::new(self, 1 - gp, HALO);
-        let (own_out, other_out) = if self.red_row(r) {
-            (&mut *red, &mut *blue)
-        } else {
-            (&mut *blue, &mut *red)
-        };
-        span.out(own_out).copy_from_slice(span.tap(m, 0));
-        span.out(other_out).copy_from_slice(span.tap(opposite, 0));
-        span.out(green).copy_from_slice(span.tap(g, 0));
+        let known = self.known(r, [&p.mosaic, &p.green, &p.opposite]);
+        for (c, plane) in p.out_rgb.iter_mut().enumerate() {
+            for parity in 0..2 {
+                if let Some(known) = known.row(c, parity) {
+                    let span = Span::new(self, parity, HALO);
+                    span.out(plane).copy_from_slice(span.tap(known, 0));
+                }
+            }
+        }
     }
 
     /// Stores `src`, the frame row padded row `r` reflects (the caller reads it), as padded
@@ -1173,11 +1211,10 @@ impl Frame {
     }
 
     /// Writes output row `r` into `out` as three planes (see [`OutputRow::Planes`]),
-    /// converting each value with `convert`: at the green sites red and blue from stage 6's
-    /// output rows and green from the mosaic; at the red and blue sites the mosaic, the green
-    /// estimate and the opposite colour from their rows. Read where they are, not first
-    /// copied into the output rows as [`Frame::fill_known`] does for the interleaved output:
-    /// those copies took 1.4 % of the fixed pipeline's time.
+    /// converting each value with `convert`: the known values from their rows (see
+    /// [`Known`]), red and blue at the green sites from stage 6's output rows.
+    /// Read where they are, not first copied into the output rows as [`Frame::fill_known`]
+    /// does for the interleaved output: those copies took 1.4 % of the fixed pipeline's time.
     #[inline(always)]
     fn write_planes<T: Copy, E: Copy, F: Fn(E) -> T>(
         &self,
@@ -1186,22 +1223,14 @@ impl Frame {
         out: &mut [T],
         convert: F,
     ) {
-        let gp = self.green_parity(r);
-        let (mosaic, green, opposite) = (p.mosaic.row(r), p.green.row(r), p.opposite.row(r));
-        let [red_g, _, blue_g] = &p.out_rgb;
-        let own = if self.red_row(r) { 0 } else { 2 };
+        let known = self.known(r, [&p.mosaic, &p.green, &p.opposite]);
         let even = self.w.div_ceil(2);
         for (c, plane) in out.chunks_exact_mut(self.w).take(3).enumerate() {
             let (to_even, to_odd) = plane.split_at_mut(even);
             for (parity, to) in [(0, to_even), (1, to_odd)] {
-                let from: &[E] = if parity == gp {
-                    [&**red_g, mosaic, &**blue_g][c]
-                } else if c == 1 {
-                    green
-                } else if c == own {
-                    mosaic
-                } else {
-                    opposite
+                let from = match known.row(c, parity) {
+                    Some(row) => row,
+                    None => p.out_rgb[c],
                 };
                 let start = parity * self.half + HALO / 2;
                 if let Some(from) = from.get(start..start + to.len()) {

@@ -18,24 +18,29 @@ use super::{EncodeLut, SEARCH8_TABLES};
 /// The search tables as vectors, loaded once per row, and the first two steps' thresholds
 /// broadcast (those steps have one and two candidates: a compare and a blend, not a shift
 /// and a permute each).
-struct Tables([__m512i; SEARCH8_TABLES], [__m512i; 3]);
+struct Tables {
+    /// Each step's candidates, as [`EncodeLut`]'s `search8` holds them.
+    steps: [__m512i; SEARCH8_TABLES],
+    /// The thresholds of codes 128, 64 and 192.
+    first_two: [__m512i; 3],
+}
 
 impl Tables {
     #[target_feature(enable = "avx512f,avx512bw")]
     fn new(lut: &EncodeLut) -> Self {
         let t = lut.search8;
         let broadcast = |v: u16| _mm512_set1_epi16(v as i16);
-        Self(
-            t.map(must_cast::<[u16; 32], __m512i>),
-            [broadcast(t[0][0]), broadcast(t[1][0]), broadcast(t[1][1])],
-        )
+        Self {
+            steps: t.map(must_cast::<[u16; 32], __m512i>),
+            first_two: [broadcast(t[0][0]), broadcast(t[1][0]), broadcast(t[1][1])],
+        }
     }
 
     /// The codes of 32 linear inputs.
     #[target_feature(enable = "avx512f,avx512bw")]
     #[inline]
     fn codes(&self, x: __m512i) -> __m512i {
-        let (t, [at128, at64, at192]) = (&self.0, &self.1);
+        let (t, [at128, at64, at192]) = (&self.steps, &self.first_two);
         // Step `s` asks whether the threshold of `code + 2^s` is at or below `x`; `code` is a
         // multiple of 2^(s+1) there, so its candidates are indexed by `code >> (s + 1)`.
         // The first step's one candidate is the threshold of 128, the second's those of 64

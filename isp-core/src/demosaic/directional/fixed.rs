@@ -485,13 +485,13 @@ impl Frame {
             for_each_block(
                 n,
                 #[inline(always)]
-                |at| {
-                    let (a, b) = (first_blocks.at(at), second_blocks.at(at));
-                    let mut block = [0; LANES];
-                    for (j, class) in block.iter_mut().enumerate() {
+                |block| {
+                    let (a, b) = (first_blocks.at(block), second_blocks.at(block));
+                    let mut values = [0; LANES];
+                    for (j, class) in values.iter_mut().enumerate() {
                         *class = line_class::<W>(lane(&a, j), lane(&b, j));
                     }
-                    store(out, at, &block);
+                    store(out, block, &values);
                 },
             );
         }
@@ -597,18 +597,18 @@ impl Frame {
         for_each_block(
             n,
             #[inline(always)]
-            |at| {
-                let (class, around) = (class.at(at), around.at(at));
-                let (chroma_p, green_p) = (chroma_p.at(at), green_p.at(at));
-                let (chroma_q, green_q) = (chroma_q.at(at), green_q.at(at));
-                let mut block = [0; LANES];
-                for (j, opposite) in block.iter_mut().enumerate() {
+            |block| {
+                let (class, around) = (class.at(block), around.at(block));
+                let (chroma_p, green_p) = (chroma_p.at(block), green_p.at(block));
+                let (chroma_q, green_q) = (chroma_q.at(block), green_q.at(block));
+                let mut values = [0; LANES];
+                for (j, opposite) in values.iter_mut().enumerate() {
                     let class = (class[0][j], lane(&around, j));
                     let p = (lane(&chroma_p, j), lane(&green_p, j));
                     let q = (lane(&chroma_q, j), lane(&green_q, j));
                     *opposite = opposite_site::<W>(class, p, q);
                 }
-                store(out, at, &block);
+                store(out, block, &values);
             },
         );
     }
@@ -647,21 +647,21 @@ impl Frame {
         for_each_block(
             n,
             #[inline(always)]
-            |at| {
-                let (class, around) = (class.at(at), around.at(at));
-                let (green_v, green_h) = (green_v.at(at), green_h.at(at));
-                let (red_v, red_h) = (red_v.at(at), red_h.at(at));
-                let (blue_v, blue_h) = (blue_v.at(at), blue_h.at(at));
-                let mut out = [[0; LANES]; 2];
+            |block| {
+                let (class, around) = (class.at(block), around.at(block));
+                let (green_v, green_h) = (green_v.at(block), green_h.at(block));
+                let (red_v, red_h) = (red_v.at(block), red_h.at(block));
+                let (blue_v, blue_h) = (blue_v.at(block), blue_h.at(block));
+                let mut values = [[0; LANES]; 2];
                 for j in 0..LANES {
                     let class = (class[0][j], lane(&around, j));
                     let green = [lane(&green_v, j), lane(&green_h, j)];
                     let red = [lane(&red_v, j), lane(&red_h, j)];
                     let blue = [lane(&blue_v, j), lane(&blue_h, j)];
-                    [out[0][j], out[1][j]] = green_site::<W>(class, green, red, blue);
+                    [values[0][j], values[1][j]] = green_site::<W>(class, green, red, blue);
                 }
-                store(red_g, at, &out[0]);
-                store(blue_g, at, &out[1]);
+                store(red_g, block, &values[0]);
+                store(blue_g, block, &values[1]);
             },
         );
     }
