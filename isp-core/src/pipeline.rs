@@ -124,7 +124,9 @@
 
 use core::ops::Range;
 
-use crate::demosaic::directional::{self, Arithmetic, Fixed, Float, OutputRow, SourceRow, Stream};
+use crate::demosaic::directional::{
+    self, Arithmetic, Fixed, Float, OutputRow, SourceRow, Stream, LANES,
+};
 use crate::demosaic::{self, reflect, Method};
 use crate::distortion::LensDistortion;
 use crate::dpc::{self, DpcConfig};
@@ -1487,10 +1489,10 @@ impl<A: Path> Engine<'_, '_, A> {
             }
             let source = read.map(|_| SourceRow::Interleaved(&*prepared));
             if stream.next_output() == Some(ry) {
-                stream.step(source, Some(OutputRow::Interleaved(&mut *out)));
+                stream.step::<LANES>(source, Some(OutputRow::Interleaved(&mut *out)));
                 break;
             }
-            stream.step(source, None);
+            stream.step::<LANES>(source, None);
         }
         if self.path.highlights_on() {
             let y = ry as isize;

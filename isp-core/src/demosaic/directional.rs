@@ -156,13 +156,13 @@ fn directional_body<T: Sample>(
     output: &mut RgbViewMut<'_, T>,
     scratch: &mut [f32],
 ) -> Result<(), IspError> {
-    whole_frame::<Float<T>>(input, output, scratch)
+    whole_frame::<Float<T>, LANES>(input, output, scratch)
 }
 
 /// Runs a [`Stream`] over the whole frame: every padded row read once, every frame row written
 /// once.
 #[inline(always)]
-fn whole_frame<A: Arithmetic>(
+fn whole_frame<A: Arithmetic, const L: usize>(
     input: &MosaicView<'_, A::T>,
     output: &mut RgbViewMut<'_, A::T>,
     scratch: &mut [A::E],
@@ -183,7 +183,7 @@ where
         let out = due
             .output
             .map(|r| OutputRow::Interleaved(output.row_mut(r - HALO)));
-        step::<A>(&frame, &mut p, due, source.map(SourceRow::Interleaved), out);
+        step::<A, L>(&frame, &mut p, due, source.map(SourceRow::Interleaved), out);
     }
     Ok(())
 }
@@ -214,7 +214,7 @@ pub(crate) enum OutputRow<'a, T> {
 /// Runs the stages `due` names: reads `source` (the frame row `due.mosaic` reflects) and
 /// writes `out` (frame row `due.output`).
 #[inline(always)]
-fn step<A: Arithmetic>(
+fn step<A: Arithmetic, const L: usize>(
     frame: &Frame,
     p: &mut Planes<'_, A::E>,
     due: Due,
@@ -234,7 +234,7 @@ fn step<A: Arithmetic>(
     }
     if let Some(r) = due.grad_class {
         frame.grad_row(r, p);
-        A::class(frame, r, p);
+        A::class::<L>(frame, r, p);
     }
     if let Some(r) = due.sum3 {
         frame.sum3_row(r, p);
@@ -243,13 +243,13 @@ fn step<A: Arithmetic>(
         A::green(frame, r, p);
     }
     if let Some(r) = due.chroma {
-        A::chroma(frame, r, p);
+        A::chroma::<L>(frame, r, p);
     }
     if let (Some(r), Some(out)) = (due.output, out) {
         match out {
-            OutputRow::Interleaved(out) => A::output(frame, r, p, out),
+            OutputRow::Interleaved(out) => A::output::<L>(frame, r, p, out),
             OutputRow::Planes(out) => {
-                A::estimate_output(frame, r, p);
+                A::estimate_output::<L>(frame, r, p);
                 frame.write_planes(r, p, out, A::leave);
             }
         }
@@ -273,15 +273,20 @@ pub(crate) trait Arithmetic {
     /// Stage 1.
     fn diff(frame: &Frame, r: usize, p: &mut Planes<'_, Self::E>);
     /// Stage 4's classifiers.
-    fn class(frame: &Frame, r: usize, p: &mut Planes<'_, Self::E>);
+    fn class<const L: usize>(frame: &Frame, r: usize, p: &mut Planes<'_, Self::E>);
     /// Stage 3.
     fn green(frame: &Frame, r: usize, p: &mut Planes<'_, Self::E>);
     /// Stage 5.
-    fn chroma(frame: &Frame, r: usize, p: &mut Planes<'_, Self::E>);
+    fn chroma<const L: usize>(frame: &Frame, r: usize, p: &mut Planes<'_, Self::E>);
     /// Stage 6 and the interleaved output row.
-    fn output(frame: &Frame, r: usize, p: &mut Planes<'_, Self::E>, out: &mut [Self::T]);
+    fn output<const L: usize>(
+        frame: &Frame,
+        r: usize,
+        p: &mut Planes<'_, Self::E>,
+        out: &mut [Self::T],
+    );
     /// Stage 6 alone: red and blue at the green sites, into the planes' output rows.
-    fn estimate_output(frame: &Frame, r: usize, p: &mut Planes<'_, Self::E>);
+    fn estimate_output<const L: usize>(frame: &Frame, r: usize, p: &mut Planes<'_, Self::E>);
 }
 
 /// The `f32` method on samples of type `T`.
@@ -303,7 +308,7 @@ impl<T: Sample> Arithmetic for Float<T> {
         frame.diff_row(r, p);
     }
     #[inline(always)]
-    fn class(frame: &Frame, r: usize, p: &mut Planes<'_, f32>) {
+    fn class<const L: usize>(frame: &Frame, r: usize, p: &mut Planes<'_, f32>) {
         frame.class_row(r, p);
     }
     #[inline(always)]
@@ -311,15 +316,15 @@ impl<T: Sample> Arithmetic for Float<T> {
         frame.green_row(r, p);
     }
     #[inline(always)]
-    fn chroma(frame: &Frame, r: usize, p: &mut Planes<'_, f32>) {
+    fn chroma<const L: usize>(frame: &Frame, r: usize, p: &mut Planes<'_, f32>) {
         frame.chroma_row(r, p);
     }
     #[inline(always)]
-    fn output(frame: &Frame, r: usize, p: &mut Planes<'_, f32>, out: &mut [T]) {
+    fn output<const L: usize>(frame: &Frame, r: usize, p: &mut Planes<'_, f32>, out: &mut [T]) {
         frame.output_row(r, p, out);
     }
     #[inline(always)]
-    fn estimate_output(frame: &Frame, r: usize, p: &mut Planes<'_, f32>) {
+    fn estimate_output<const L: usize>(frame: &Frame, r: usize, p: &mut Planes<'_, f32>) {
         frame.output_estimates(r, p);
     }
 }
@@ -398,13 +403,13 @@ impl<'s, A: Arithmetic> Stream<'s, A> {
     /// (the row [`Stream::next_output`] named); either is ignored when the step has no use
     /// for it.
     #[inline(always)]
-    pub(crate) fn step(
+    pub(crate) fn step<const L: usize>(
         &mut self,
         source: Option<SourceRow<'_, A::T>>,
         out: Option<OutputRow<'_, A::T>>,
     ) {
         let due = self.due();
-        step::<A>(&self.frame, &mut self.planes, due, source, out);
+        step::<A, L>(&self.frame, &mut self.planes, due, source, out);
         self.next += 1;
     }
 
@@ -741,58 +746,63 @@ impl Span {
     }
 }
 
-/// Sites per block of [`Blocks`]: one AVX-512 vector of `i32`.
-pub(super) const LANES: usize = 16;
+/// Sites per block of [`Blocks`] in the AVX-512 build: one vector of `i32`.
+pub(crate) const LANES_AVX512: usize = 16;
+/// Sites per block of [`Blocks`] in the other builds: one AVX2 vector of `i32`. Sixteen, two
+/// AVX2 vectors per value, spilled more than it gained on AVX2's sixteen registers: the fixed
+/// pipeline's directional frame took 21 ns per pixel against 17 on a Zen 3 EPYC.
+pub(crate) const LANES: usize = 8;
 
-/// A block of [`LANES`] sites of a span: whole block `b` (sites `b * LANES..`), or the last
-/// [`LANES`] sites where the span is not a whole number of blocks (see [`for_each_block`]).
+/// A block of `L` sites of a span: whole block `b` (sites `b * L..`), or the last `L` sites
+/// where the span is not a whole number of blocks (see [`for_each_block`]).
 #[derive(Clone, Copy)]
 pub(super) enum Block {
-    /// Sites `b * LANES..(b + 1) * LANES`.
+    /// Sites `b * L..(b + 1) * L`.
     Whole(usize),
-    /// The span's last [`LANES`] sites.
+    /// The span's last `L` sites.
     Last,
 }
 
-/// Calls `f` with each block covering a span of `n >= LANES` sites: every whole block, then
-/// one ending at `n` that overlaps the block before and computes its shared sites again, to
-/// the same values (a stage writes only its own sites and reads nothing it writes). A loop
-/// over a span's sites ends in scalar code for 1 to 16 of them, which cost 10-20 times a
-/// vector site: about a sixth of the fixed method's time. Two loops, not one over a chained
-/// iterator: in the first the compiler knows each block is within the taps (see [`Blocks`]).
+/// Calls `f` with each block of `L` sites covering a span of `n >= L` sites: every whole
+/// block, then one ending at `n` that overlaps the block before and computes its shared sites
+/// again, to the same values (a stage writes only its own sites and reads nothing it
+/// writes). A loop over a span's sites ends in scalar code for 1 to 16 of them, which cost
+/// 10-20 times a vector site: about a sixth of the fixed method's time. Two loops, not one
+/// over a chained iterator: in the first the compiler knows each block is within the taps
+/// (see [`Blocks`]).
 #[inline(always)]
-pub(super) fn for_each_block(n: usize, mut f: impl FnMut(Block)) {
-    for b in 0..n / LANES {
+pub(super) fn for_each_block<const L: usize>(n: usize, mut f: impl FnMut(Block)) {
+    for b in 0..n / L {
         f(Block::Whole(b));
     }
-    if !n.is_multiple_of(LANES) {
+    if !n.is_multiple_of(L) {
         f(Block::Last);
     }
 }
 
-/// `N` taps of a span of `n` sites (a stage's inputs), as blocks of [`LANES`] sites.
+/// `N` taps of a span of `n` sites (a stage's inputs), as blocks of `L` sites.
 ///
 /// The whole blocks are held as the taps' chunks, each tap's the same count, so a loop over
 /// them (see [`for_each_block`]) reads each block with no range check: one per tap and
 /// block (a compare and a branch each, 14 to 31 per block) took about 3 % of the fixed
 /// pipeline's time.
-pub(super) struct Blocks<'a, const N: usize> {
-    whole: [&'a [[i32; LANES]]; N],
-    last: [&'a [i32; LANES]; N],
+pub(super) struct Blocks<'a, const N: usize, const L: usize> {
+    whole: [&'a [[i32; L]]; N],
+    last: [&'a [i32; L]; N],
 }
 
-impl<'a, const N: usize> Blocks<'a, N> {
-    /// The blocks of `taps` over `n` sites; `None` if `n < LANES` or a tap is shorter than
-    /// `n` (a span's taps are `n` long).
+impl<'a, const N: usize, const L: usize> Blocks<'a, N, L> {
+    /// The blocks of `taps` over `n` sites; `None` if `n < L` or a tap is shorter than `n` (a
+    /// span's taps are `n` long).
     #[inline(always)]
     pub(super) fn new(taps: &[&'a [i32]; N], n: usize) -> Option<Self> {
-        let count = n / LANES;
-        let mut whole: [&'a [[i32; LANES]]; N] = [&[]; N];
-        let mut last: [&'a [i32; LANES]; N] = [&[0; LANES]; N];
+        let count = n / L;
+        let mut whole: [&'a [[i32; L]]; N] = [&[]; N];
+        let mut last: [&'a [i32; L]; N] = [&[0; L]; N];
         for k in 0..N {
             let tap = taps[k].get(..n)?;
-            whole[k] = tap.as_chunks::<LANES>().0.get(..count)?;
-            last[k] = tap.last_chunk::<LANES>()?;
+            whole[k] = tap.as_chunks::<L>().0.get(..count)?;
+            last[k] = tap.last_chunk::<L>()?;
         }
         Some(Self { whole, last })
     }
@@ -802,8 +812,8 @@ impl<'a, const N: usize> Blocks<'a, N> {
     /// remainder.
     #[inline(always)]
     #[allow(clippy::needless_range_loop)]
-    pub(super) fn at(&self, block: Block) -> [[i32; LANES]; N] {
-        let mut out = [[0; LANES]; N];
+    pub(super) fn at(&self, block: Block) -> [[i32; L]; N] {
+        let mut out = [[0; L]; N];
         for k in 0..N {
             let chunk = match block {
                 Block::Whole(b) => self.whole[k].get(b),
@@ -820,20 +830,20 @@ impl<'a, const N: usize> Blocks<'a, N> {
 /// Lane `j` of each of `N` blocks.
 #[inline(always)]
 #[allow(clippy::needless_range_loop)]
-pub(super) fn lane<const N: usize>(blocks: &[[i32; LANES]; N], j: usize) -> [i32; N] {
+pub(super) fn lane<const N: usize, const L: usize>(blocks: &[[i32; L]; N], j: usize) -> [i32; N] {
     let mut v = [0; N];
     for k in 0..N {
-        v[k] = blocks[k][j % LANES];
+        v[k] = blocks[k][j % L];
     }
     v
 }
 
 /// Writes a block of sites into a stage's output (the span's length).
 #[inline(always)]
-pub(super) fn store(plane: &mut [i32], block: Block, values: &[i32; LANES]) {
+pub(super) fn store<const L: usize>(plane: &mut [i32], block: Block, values: &[i32; L]) {
     let chunk = match block {
-        Block::Whole(b) => plane.as_chunks_mut::<LANES>().0.get_mut(b),
-        Block::Last => plane.last_chunk_mut::<LANES>(),
+        Block::Whole(b) => plane.as_chunks_mut::<L>().0.get_mut(b),
+        Block::Last => plane.last_chunk_mut::<L>(),
     };
     if let Some(chunk) = chunk {
         *chunk = *values;

@@ -25,7 +25,7 @@
 use core::ops::Range;
 
 use super::{FixedPipeline, FloatPipeline, OutputSample, Path, CHUNK, IDENTITY, MOSAIC_ROWS};
-use crate::demosaic::directional::{Arithmetic, OutputRow, Stream, HALO};
+use crate::demosaic::directional::{Arithmetic, OutputRow, Stream, HALO, LANES, LANES_AVX512};
 use crate::demosaic::planar::{demosaic_row, Halves};
 use crate::demosaic::{reflect, Method};
 use crate::dpc;
@@ -402,7 +402,7 @@ pub(super) fn run_directional_general<A: Planar, O: OutputSample>(
     scratch: &mut [A::P],
     out: &mut RgbViewMut<'_, O>,
 ) -> Result<(), IspError> {
-    run_directional(path, raw, rows, scratch, out, encode_row)
+    run_directional::<A, O, LANES>(path, raw, rows, scratch, out, encode_row)
 }
 
 /// [`run_directional`] out of line, compiled for AVX2.
@@ -416,7 +416,7 @@ pub(super) fn run_directional_avx2<A: Planar, O: OutputSample>(
     scratch: &mut [A::P],
     out: &mut RgbViewMut<'_, O>,
 ) -> Result<(), IspError> {
-    run_directional(path, raw, rows, scratch, out, encode_row)
+    run_directional::<A, O, LANES>(path, raw, rows, scratch, out, encode_row)
 }
 
 /// [`run_directional`] out of line, compiled for AVX-512 (F, BW, VL, DQ).
@@ -433,7 +433,7 @@ pub(super) fn run_directional_avx512<A: Planar, O: OutputSample>(
     let encode = |path: &A, planes: &[A::P], halves: Halves, out: &mut [O]| {
         encode_row_avx512(path, planes, halves, out)
     };
-    run_directional(path, raw, rows, scratch, out, encode)
+    run_directional::<A, O, LANES_AVX512>(path, raw, rows, scratch, out, encode)
 }
 
 /// [`encode_row`] with AVX-512 (F and BW) where the path's encoding is the fixed path's
@@ -460,9 +460,10 @@ pub(super) fn encode_row_avx512<A: Planar, O: OutputSample>(
 /// [`run`] with the directional method: the method's stream reads the prepared rows (as
 /// split rows, so it only pads them) and writes planes, which the colour matrix and the
 /// encoding take as they take the other methods'. A band starts the stream again 12 rows
-/// above its first row, as the general engine does.
+/// above its first row, as the general engine does. `L` is the sites per block of the
+/// integer method's vector loops: one vector of `i32` of the build's widest ISA.
 #[inline(always)]
-fn run_directional<A: Planar, O: OutputSample>(
+fn run_directional<A: Planar, O: OutputSample, const L: usize>(
     path: &A,
     raw: &RawFrame<'_>,
     rows: Range<usize>,
@@ -519,10 +520,10 @@ fn run_directional<A: Planar, O: OutputSample>(
             }
             let source = read.map(|_| halves.unpadded(&*prepared));
             if stream.next_output() == Some(y) {
-                stream.step(source, Some(OutputRow::Planes(&mut *planes)));
+                stream.step::<L>(source, Some(OutputRow::Planes(&mut *planes)));
                 break;
             }
-            stream.step(source, None);
+            stream.step::<L>(source, None);
         }
         if let Some(knee) = knee {
             directional_highlights::<A>(knee, &stream, y, halves, planes);

@@ -15,7 +15,8 @@
 //! handling zero exactly. Each value's bound is stated where it is formed.
 
 use super::{
-    at, for_each_block, lane, store, Arithmetic, Blocks, Frame, Planes, Span, LANES, SMOOTH_PERCENT,
+    at, for_each_block, lane, store, Arithmetic, Blocks, Frame, Planes, Span, LANES, LANES_AVX512,
+    SMOOTH_PERCENT,
 };
 use crate::frame::{IntSample, MosaicView, RgbViewMut};
 use crate::IspError;
@@ -58,7 +59,7 @@ pub fn directional_fixed<T: IntSample>(
     output: &mut RgbViewMut<'_, T>,
     scratch: &mut [i32],
 ) -> Result<(), IspError> {
-    super::whole_frame::<Fixed<T>>(input, output, scratch)
+    super::whole_frame::<Fixed<T>, LANES>(input, output, scratch)
 }
 
 /// [`directional_fixed`] compiled for x86-64 CPUs with AVX-512 (F, BW, VL and DQ): the same
@@ -76,7 +77,7 @@ pub fn directional_fixed_avx512<T: IntSample>(
     output: &mut RgbViewMut<'_, T>,
     scratch: &mut [i32],
 ) -> Result<(), IspError> {
-    super::whole_frame::<Fixed<T>>(input, output, scratch)
+    super::whole_frame::<Fixed<T>, LANES_AVX512>(input, output, scratch)
 }
 
 /// The integer method on samples of type `T`, its wide intermediates held as `W` (the
@@ -99,27 +100,27 @@ impl<T: IntSample, W: Wide> Arithmetic for Fixed<T, W> {
         frame.diff_row_fixed(r, p);
     }
     #[inline(always)]
-    fn class(frame: &Frame, r: usize, p: &mut Planes<'_, i32>) {
-        frame.class_row_fixed::<W>(r, p);
+    fn class<const L: usize>(frame: &Frame, r: usize, p: &mut Planes<'_, i32>) {
+        frame.class_row_fixed::<W, L>(r, p);
     }
     #[inline(always)]
     fn green(frame: &Frame, r: usize, p: &mut Planes<'_, i32>) {
         frame.green_row_fixed::<W>(r, p);
     }
     #[inline(always)]
-    fn chroma(frame: &Frame, r: usize, p: &mut Planes<'_, i32>) {
-        frame.chroma_row_fixed::<W>(r, p);
+    fn chroma<const L: usize>(frame: &Frame, r: usize, p: &mut Planes<'_, i32>) {
+        frame.chroma_row_fixed::<W, L>(r, p);
     }
     #[inline(always)]
-    fn output(frame: &Frame, r: usize, p: &mut Planes<'_, i32>, out: &mut [T]) {
+    fn output<const L: usize>(frame: &Frame, r: usize, p: &mut Planes<'_, i32>, out: &mut [T]) {
         frame.fill_known(r, p);
-        frame.output_estimates_fixed::<W>(r, p);
+        frame.output_estimates_fixed::<W, L>(r, p);
         let [red, green, blue] = &p.out_rgb;
         frame.write_row([&**red, &**green, &**blue], out, from_working::<T>);
     }
     #[inline(always)]
-    fn estimate_output(frame: &Frame, r: usize, p: &mut Planes<'_, i32>) {
-        frame.output_estimates_fixed::<W>(r, p);
+    fn estimate_output<const L: usize>(frame: &Frame, r: usize, p: &mut Planes<'_, i32>) {
+        frame.output_estimates_fixed::<W, L>(r, p);
     }
 }
 
@@ -464,7 +465,7 @@ impl Frame {
 
     /// The classifiers in Q16.
     #[inline(always)]
-    fn class_row_fixed<W: Wide>(&self, r: usize, p: &mut Planes<'_, i32>) {
+    fn class_row_fixed<W: Wide, const L: usize>(&self, r: usize, p: &mut Planes<'_, i32>) {
         let t = self.class_taps(r, &p.mosaic);
         let lines = [
             (t.green, t.vertical, t.horizontal),
@@ -473,21 +474,22 @@ impl Frame {
         for (span, first, second) in lines {
             let out = span.out(p.class.row_mut(r));
             let n = out.len();
-            let (Some(first_blocks), Some(second_blocks)) =
-                (Blocks::new(&first, n), Blocks::new(&second, n))
-            else {
-                // Fewer than `LANES` sites.
+            let (Some(first_blocks), Some(second_blocks)) = (
+                Blocks::<_, L>::new(&first, n),
+                Blocks::<_, L>::new(&second, n),
+            ) else {
+                // Fewer than `L` sites.
                 for (i, class) in out.iter_mut().enumerate() {
                     *class = line_class::<W>(at(&first, i), at(&second, i));
                 }
                 continue;
             };
-            for_each_block(
+            for_each_block::<L>(
                 n,
                 #[inline(always)]
                 |block| {
                     let (a, b) = (first_blocks.at(block), second_blocks.at(block));
-                    let mut values = [0; LANES];
+                    let mut values = [0; L];
                     for (j, class) in values.iter_mut().enumerate() {
                         *class = line_class::<W>(lane(&a, j), lane(&b, j));
                     }
@@ -564,17 +566,17 @@ impl Frame {
     }
 
     #[inline(always)]
-    fn chroma_row_fixed<W: Wide>(&self, r: usize, p: &mut Planes<'_, i32>) {
+    fn chroma_row_fixed<W: Wide, const L: usize>(&self, r: usize, p: &mut Planes<'_, i32>) {
         let t = self.chroma_taps(r, &p.mosaic, &p.green, &p.class);
         let out = t.span.out(p.opposite.row_mut(r));
         let n = out.len();
         let blocks = (
-            Blocks::new(&[t.class], n),
-            Blocks::new(&t.class_around, n),
-            Blocks::new(&t.chroma_p, n),
-            Blocks::new(&t.green_p, n),
-            Blocks::new(&t.chroma_q, n),
-            Blocks::new(&t.green_q, n),
+            Blocks::<_, L>::new(&[t.class], n),
+            Blocks::<_, L>::new(&t.class_around, n),
+            Blocks::<_, L>::new(&t.chroma_p, n),
+            Blocks::<_, L>::new(&t.green_p, n),
+            Blocks::<_, L>::new(&t.chroma_q, n),
+            Blocks::<_, L>::new(&t.green_q, n),
         );
         let (
             Some(class),
@@ -585,7 +587,7 @@ impl Frame {
             Some(green_q),
         ) = blocks
         else {
-            // Fewer than `LANES` sites.
+            // Fewer than `L` sites.
             for (i, opposite) in out.iter_mut().enumerate() {
                 let class = (t.class[i], at(&t.class_around, i));
                 let p = (at(&t.chroma_p, i), at(&t.green_p, i));
@@ -594,14 +596,14 @@ impl Frame {
             }
             return;
         };
-        for_each_block(
+        for_each_block::<L>(
             n,
             #[inline(always)]
             |block| {
                 let (class, around) = (class.at(block), around.at(block));
                 let (chroma_p, green_p) = (chroma_p.at(block), green_p.at(block));
                 let (chroma_q, green_q) = (chroma_q.at(block), green_q.at(block));
-                let mut values = [0; LANES];
+                let mut values = [0; L];
                 for (j, opposite) in values.iter_mut().enumerate() {
                     let class = (class[0][j], lane(&around, j));
                     let p = (lane(&chroma_p, j), lane(&green_p, j));
@@ -616,16 +618,28 @@ impl Frame {
     /// Stage 6: red and blue at row `r`'s green pixels, into the output rows (their
     /// green-site halves).
     #[inline(always)]
-    fn output_estimates_fixed<W: Wide>(&self, r: usize, p: &mut Planes<'_, i32>) {
+    fn output_estimates_fixed<W: Wide, const L: usize>(&self, r: usize, p: &mut Planes<'_, i32>) {
         let t = self.green_site_taps(r, &p.mosaic, &p.opposite, &p.green, &p.class);
         let [red, _, blue] = &mut p.out_rgb;
         let (red_g, blue_g) = (t.span.out(red), t.span.out(blue));
         let n = red_g.len();
         let blocks = (
-            (Blocks::new(&[t.class], n), Blocks::new(&t.class_around, n)),
-            (Blocks::new(&t.green_v, n), Blocks::new(&t.green_h, n)),
-            (Blocks::new(&t.red_v, n), Blocks::new(&t.red_h, n)),
-            (Blocks::new(&t.blue_v, n), Blocks::new(&t.blue_h, n)),
+            (
+                Blocks::<_, L>::new(&[t.class], n),
+                Blocks::<_, L>::new(&t.class_around, n),
+            ),
+            (
+                Blocks::<_, L>::new(&t.green_v, n),
+                Blocks::<_, L>::new(&t.green_h, n),
+            ),
+            (
+                Blocks::<_, L>::new(&t.red_v, n),
+                Blocks::<_, L>::new(&t.red_h, n),
+            ),
+            (
+                Blocks::<_, L>::new(&t.blue_v, n),
+                Blocks::<_, L>::new(&t.blue_h, n),
+            ),
         );
         let (
             (Some(class), Some(around)),
@@ -634,7 +648,7 @@ impl Frame {
             (Some(blue_v), Some(blue_h)),
         ) = blocks
         else {
-            // Fewer than `LANES` sites.
+            // Fewer than `L` sites.
             for i in 0..n {
                 let class = (t.class[i], at(&t.class_around, i));
                 let green = [at(&t.green_v, i), at(&t.green_h, i)];
@@ -644,7 +658,7 @@ impl Frame {
             }
             return;
         };
-        for_each_block(
+        for_each_block::<L>(
             n,
             #[inline(always)]
             |block| {
@@ -652,8 +666,8 @@ impl Frame {
                 let (green_v, green_h) = (green_v.at(block), green_h.at(block));
                 let (red_v, red_h) = (red_v.at(block), red_h.at(block));
                 let (blue_v, blue_h) = (blue_v.at(block), blue_h.at(block));
-                let mut values = [[0; LANES]; 2];
-                for j in 0..LANES {
+                let mut values = [[0; L]; 2];
+                for j in 0..L {
                     let class = (class[0][j], lane(&around, j));
                     let green = [lane(&green_v, j), lane(&green_h, j)];
                     let red = [lane(&red_v, j), lane(&red_h, j)];
@@ -867,13 +881,13 @@ mod tests {
                 let mut out = RgbViewMut::new(&mut rgb, w, h, 3 * w).unwrap();
                 let mut scratch = [0i32; SCRATCH];
                 if exact {
-                    super::super::whole_frame::<Fixed<u16, Checked>>(
+                    super::super::whole_frame::<Fixed<u16, Checked>, { super::super::LANES }>(
                         &mosaic,
                         &mut out,
                         &mut scratch,
                     )
                 } else {
-                    super::super::whole_frame::<Fixed<u16, Estimated>>(
+                    super::super::whole_frame::<Fixed<u16, Estimated>, { super::super::LANES }>(
                         &mosaic,
                         &mut out,
                         &mut scratch,
