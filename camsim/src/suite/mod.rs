@@ -77,15 +77,35 @@ pub struct Machine {
 impl Machine {
     /// This machine.
     pub fn this() -> Self {
-        let cpu = std::fs::read_to_string("/proc/cpuinfo")
-            .ok()
-            .and_then(|text| {
-                text.lines()
-                    .find(|l| l.starts_with("model name"))
-                    .and_then(|l| l.split(':').nth(1))
-                    .map(|m| m.split_whitespace().collect::<Vec<_>>().join(" "))
-            })
-            .unwrap_or_else(|| "unknown CPU".into());
+        let info = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
+        let field = |name: &str| {
+            info.lines()
+                .find(|l| l.split(':').next().map(str::trim) == Some(name))
+                .and_then(|l| l.split(':').nth(1))
+                .map(|m| m.split_whitespace().collect::<Vec<_>>().join(" "))
+        };
+        let mut cpu = field("model name").unwrap_or_else(|| "unknown CPU".into());
+        // The model name alone ("AMD EPYC" under a hypervisor) does not say which generation
+        // ran, nor whether the AVX-512 builds could: the kernels' speeds hinge on both.
+        let mut detail = Vec::new();
+        if let (Some(family), Some(model)) = (field("cpu family"), field("model")) {
+            detail.push(format!("family {family} model {model}"));
+        }
+        #[cfg(target_arch = "x86_64")]
+        detail.push(
+            if std::arch::is_x86_feature_detected!("avx512f")
+                && std::arch::is_x86_feature_detected!("avx512bw")
+            {
+                "AVX-512".to_string()
+            } else if std::arch::is_x86_feature_detected!("avx2") {
+                "AVX2, no AVX-512".to_string()
+            } else {
+                "no AVX2".to_string()
+            },
+        );
+        if !detail.is_empty() {
+            cpu = format!("{cpu} ({})", detail.join(", "));
+        }
         Self {
             cpu,
             cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
