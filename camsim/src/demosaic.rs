@@ -140,7 +140,7 @@ pub(crate) fn has_avx512() -> bool {
 }
 
 /// The integer directional method in the fastest build this CPU runs: the AVX-512 build
-/// where the CPU has it (bit-identical output), the baseline build otherwise.
+/// where the CPU has it, else the AVX2 build (both bit-identical), else the baseline build.
 pub fn directional_fixed_dispatch<T: IntSample>(
     mosaic: &MosaicView<'_, T>,
     out: &mut RgbViewMut<'_, T>,
@@ -152,6 +152,14 @@ pub fn directional_fixed_dispatch<T: IntSample>(
         // `directional_fixed_avx512` is compiled for.
         return unsafe {
             isp_core::demosaic::directional::directional_fixed_avx512(mosaic, out, scratch)
+        };
+    }
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has just been found to support AVX2, the one target feature
+        // `directional_fixed_avx2` is compiled for.
+        return unsafe {
+            isp_core::demosaic::directional::directional_fixed_avx2(mosaic, out, scratch)
         };
     }
     directional_fixed(mosaic, out, scratch)

@@ -58,6 +58,8 @@ use crate::{CfaColour, CfaPattern, IspError};
 mod fixed;
 pub use fixed::directional_fixed;
 #[cfg(target_arch = "x86_64")]
+pub use fixed::directional_fixed_avx2;
+#[cfg(target_arch = "x86_64")]
 pub use fixed::directional_fixed_avx512;
 pub(crate) use fixed::Fixed;
 
