@@ -261,7 +261,9 @@ fn step<A: Arithmetic, const L: usize>(
 /// One version of the method's arithmetic: the working element its ring buffers hold, how
 /// samples enter and leave it, and the stages whose arithmetic differs (the gradient stages
 /// are shared, generic over [`Level`]). [`Float`] is the `f32` method, `fixed::Fixed` the
-/// integer one.
+/// integer one. `L` is the sites per block of the integer stages' vector loops ([`LANES`],
+/// or [`LANES_AVX512`] in the AVX-512 builds); the `f32` stages loop over slices and ignore
+/// it.
 pub(crate) trait Arithmetic {
     /// The sample type in and out.
     type T: Copy;
@@ -768,8 +770,8 @@ pub(super) enum Block {
 /// Calls `f` with each block of `L` sites covering a span of `n >= L` sites: every whole
 /// block, then one ending at `n` that overlaps the block before and computes its shared sites
 /// again, to the same values (a stage writes only its own sites and reads nothing it
-/// writes). A loop over a span's sites ends in scalar code for 1 to 16 of them, which cost
-/// 10-20 times a vector site: about a sixth of the fixed method's time. Two loops, not one
+/// writes). A plain loop over a span's sites ends in scalar code for up to `L` of them,
+/// which cost 10-20 times a vector site: about a sixth of the fixed method's time at 16. Two loops, not one
 /// over a chained iterator: in the first the compiler knows each block is within the taps
 /// (see [`Blocks`]).
 #[inline(always)]

@@ -80,8 +80,8 @@ pub fn directional_fixed_avx2<T: IntSample>(
 }
 
 /// [`directional_fixed`] compiled for x86-64 CPUs with AVX-512 (F, BW, VL and DQ): the same
-/// output, its loops sixteen 32-bit lanes wide (the AVX2 build, eight lanes, ran the
-/// pipeline's directional frame 20 % slower on the project's EPYC).
+/// output, its loops sixteen 32-bit lanes wide (on a Zen 4 EPYC the AVX2 build ran the
+/// pipeline's directional frame 20 % slower).
 ///
 /// # Safety
 ///
