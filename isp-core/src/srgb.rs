@@ -22,6 +22,19 @@ fn clamp01(x: f32) -> f32 {
     }
 }
 
+/// `x` clamped to `[0, 1]`, NaN and -0 as 0: what [`EncodeThresholds8::code_clamped`] takes.
+/// The same value as the clamp inside [`encode`], written as two selects so that a loop of it
+/// vectorises.
+#[inline(always)]
+pub fn clamp_for_code(x: f32) -> f32 {
+    let below_one = if x < 1.0 { x } else { 1.0 };
+    if x > 0.0 {
+        below_one
+    } else {
+        0.0
+    }
+}
+
 /// Linear light in `[0, 1]` to the sRGB signal in `[0, 1]`.
 pub fn encode(linear: f32) -> f32 {
     let x = clamp01(linear);
@@ -313,7 +326,16 @@ impl EncodeThresholds8 {
     /// [`exact_code8`].
     #[inline(always)]
     pub fn code(&self, x: f32) -> u8 {
-        let bits = clamp01(x).to_bits();
+        self.code_clamped(clamp01(x))
+    }
+
+    /// [`EncodeThresholds8::code`] of an `x` already clamped: the same code wherever `x` is
+    /// what [`clamp_for_code`] returns (a value in `[0, 1]`, never -0 or NaN), so a caller
+    /// can clamp a row in a vector loop and look the codes up after. Any other `x` gives some
+    /// code, without a panic.
+    #[inline(always)]
+    pub fn code_clamped(&self, x: f32) -> u8 {
+        let bits = x.to_bits();
         let k = usize::from(self.bucket[(bits >> BUCKET_SHIFT) as usize & (BUCKET_SLOTS - 1)]);
         // At most one threshold follows a bucket's start (the table is the same on every
         // build; the tests check it): one step without a branch. (A loop after it, which

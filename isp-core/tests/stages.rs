@@ -522,6 +522,7 @@ fn encode_thresholds_give_the_exact_codes() {
     for b in (0..=1.0f32.to_bits()).step_by(4099) {
         let x = f32::from_bits(b);
         assert_eq!(codes.code(x), exact_code8(x), "x = {x:e}");
+        assert_eq!(codes.code_clamped(srgb::clamp_for_code(x)), codes.code(x));
     }
     for x in [
         0.0f32,
@@ -532,8 +533,17 @@ fn encode_thresholds_give_the_exact_codes() {
         f32::NAN,
         f32::INFINITY,
         f32::NEG_INFINITY,
+        -f32::NAN,
+        f32::MIN_POSITIVE,
+        -f32::MIN_POSITIVE,
+        0.999_999_94,
+        1.000_000_1,
     ] {
         assert_eq!(codes.code(x), exact_code8(x), "x = {x}");
+        // The vector loops' clamp, then the lookup without one: the same code.
+        let clamped = srgb::clamp_for_code(x);
+        assert!((0.0..=1.0).contains(&clamped) && clamped.to_bits() <= 1.0f32.to_bits());
+        assert_eq!(codes.code_clamped(clamped), exact_code8(x), "x = {x}");
     }
     // Buckets of 2^16 floats: at most one threshold after each bucket's first float.
     for bucket in 0..=(1.0f32.to_bits() >> 16) {

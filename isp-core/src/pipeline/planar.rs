@@ -54,9 +54,16 @@ pub(super) trait Planar: Path<P: PartialOrd> {
     fn matrix(&self) -> Option<Self::Matrix>;
     /// The colour matrix at one pixel.
     fn colour_matrix(m: &Self::Matrix, rgb: [Self::P; 3]) -> [Self::P; 3];
-    /// The 8-bit sRGB code of a linear value.
-    fn code8(&self, v: Self::P) -> u32;
-    /// Where [`Self::code8`] is [`srgb::EncodeLut::lookup8`] of `u16` samples (the fixed
+    /// Whether [`Planar::clamp_for_code8`] changes values (else a row without a colour
+    /// matrix skips its pass).
+    const CLAMPS_FOR_CODE8: bool;
+    /// A linear value as [`Planar::code8_clamped`] takes it, formed in a vector loop (the
+    /// colour matrix's, or a pass of its own) so that the scalar lookups need not clamp: the
+    /// float path clamps to `[0, 1]` here.
+    fn clamp_for_code8(v: Self::P) -> Self::P;
+    /// The 8-bit sRGB code of a linear value from [`Planar::clamp_for_code8`].
+    fn code8_clamped(&self, v: Self::P) -> u32;
+    /// Where [`Self::code8_clamped`] is [`srgb::EncodeLut::lookup8`] of `u16` samples (the fixed
     /// path), that table and `planes` as `u16`: for the vectorised encoder.
     #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     fn lookup8_planes<'a>(
@@ -210,8 +217,16 @@ impl Planar for FixedPipeline<'_> {
         [m.channel(0, v), m.channel(1, v), m.channel(2, v)]
     }
 
+    // The table takes every `u16`.
+    const CLAMPS_FOR_CODE8: bool = false;
+
     #[inline(always)]
-    fn code8(&self, v: u16) -> u32 {
+    fn clamp_for_code8(v: u16) -> u16 {
+        v
+    }
+
+    #[inline(always)]
+    fn code8_clamped(&self, v: u16) -> u32 {
         self.encode.lookup8(v)
     }
 
@@ -288,9 +303,16 @@ impl Planar for FloatPipeline<'_> {
         ccm::apply_f32(m, rgb)
     }
 
+    const CLAMPS_FOR_CODE8: bool = true;
+
     #[inline(always)]
-    fn code8(&self, v: f32) -> u32 {
-        u32::from(self.codes8.code(v))
+    fn clamp_for_code8(v: f32) -> f32 {
+        srgb::clamp_for_code(v)
+    }
+
+    #[inline(always)]
+    fn code8_clamped(&self, v: f32) -> u32 {
+        u32::from(self.codes8.code_clamped(v))
     }
 
     type Knee = f32;
@@ -385,7 +407,14 @@ fn finish_row<A: Planar, O: OutputSample>(
         let (r, rest) = planes.split_at_mut(w);
         let (g, b) = rest.split_at_mut(w);
         for ((r, g), b) in r.iter_mut().zip(g.iter_mut()).zip(b.iter_mut()) {
-            [*r, *g, *b] = A::colour_matrix(m, [*r, *g, *b]);
+            let [cr, cg, cb] = A::colour_matrix(m, [*r, *g, *b]);
+            *r = A::clamp_for_code8(cr);
+            *g = A::clamp_for_code8(cg);
+            *b = A::clamp_for_code8(cb);
+        }
+    } else if A::CLAMPS_FOR_CODE8 {
+        for v in planes[..3 * w].iter_mut() {
+            *v = A::clamp_for_code8(*v);
         }
     }
     encode(path, planes, halves, out);
@@ -690,7 +719,8 @@ pub(super) fn encode_row<A: Planar, O: OutputSample>(
     out: &mut [O],
 ) {
     let w = halves.even + halves.odd;
-    let encode = |v: A::P| O::from_code(path.code8(v));
+    // The planes come from finish_row, which clamped them.
+    let encode = |v: A::P| O::from_code(path.code8_clamped(v));
     let plane = |c: usize| &planes[c * w..(c + 1) * w];
     let [r, g, b] = [plane(0), plane(1), plane(2)];
     let (even, odd) = (halves.even, halves.odd);
