@@ -181,12 +181,29 @@ pub(crate) fn correct_span(
                 .get(first)
                 .is_some_and(|d| (d.y as usize) <= y + 2)
         };
-        // Rows two from the top and bottom, with no static defect near, give every pixel
-        // eight usable neighbours (mirrored at the sides): the interior columns lo..hi take
-        // the vectorised detection below, the pixels it flags and the two at each side
-        // `sorted8`. Everything else takes the general rule.
-        let rows = (y >= 2 && y + 2 < h && w >= 5 && !static_near)
-            .then(|| [mosaic.row(y - 2), mosaic.row(y), mosaic.row(y + 2)]);
+        // Rows with a same-colour row above and below (or its mirror about the pixel, as
+        // `neighbours` mirrors: row y + 2 stands for y - 2 in the top two rows, y - 2 for
+        // y + 2 in the bottom two) and no static defect near give every pixel eight usable
+        // neighbours (mirrored at the sides too): the interior columns lo..hi take the
+        // vectorised detection below, the pixels it flags and the two at each side
+        // `sorted8`. Everything else takes the general rule. (The top and bottom rows had
+        // taken it, a sort per pixel: 2 % of the float directional pipeline's time.)
+        let above = if y >= 2 {
+            Some(y - 2)
+        } else {
+            (y + 2 < h).then_some(y + 2)
+        };
+        let below = if y + 2 < h {
+            Some(y + 2)
+        } else {
+            y.checked_sub(2)
+        };
+        let rows = match (above, below) {
+            (Some(above), Some(below)) if w >= 5 && !static_near => {
+                Some([mosaic.row(above), mosaic.row(y), mosaic.row(below)])
+            }
+            _ => None,
+        };
         // The dynamic rule where all eight neighbours are usable.
         let fast_rule = |rows, x| match row_neighbours(rows, x) {
             Some((own, values)) => outlier_median(own, &sorted8(values), threshold),
@@ -260,10 +277,10 @@ pub(crate) fn correct_span(
 /// Pixels the vectorised detection handles at a time.
 const DETECT_BLOCK: usize = 128;
 
-/// Flags (1, else 0) the pixels `x0..x0 + flags.len()` (all at least two from every frame
-/// edge) that dynamic detection would replace: above the second-largest of the eight same-colour
+/// Flags (1, else 0) the pixels `x0..x0 + flags.len()` (all at least two from the sides)
+/// that dynamic detection would replace: above the second-largest of the eight same-colour
 /// neighbours by more than `threshold`, or below the second-smallest by more. `rows` are rows
-/// `y - 2`, `y` and `y + 2`. Branch-free over contiguous slices so it vectorises; saturating
+/// `y - 2`, `y` and `y + 2` (or their mirrors at the top and bottom). Branch-free over contiguous slices so it vectorises; saturating
 /// `u16` sums give the comparisons of the `u32` ones in [`dynamic_replacement`].
 #[inline(always)]
 fn detect_interior(rows: [&[u16]; 3], x0: usize, threshold: u16, flags: &mut [u8]) {
@@ -288,7 +305,7 @@ fn detect_interior(rows: [&[u16]; 3], x0: usize, threshold: u16, flags: &mut [u8
     }
 }
 
-/// Column `x` of `rows` (rows `y - 2`, `y` and `y + 2`, at least 5 wide) and its eight
+/// Column `x` of `rows` (rows `y - 2`, `y` and `y + 2` or their mirrors, at least 5 wide) and its eight
 /// same-colour neighbours, the columns past a side mirrored about `x` as [`neighbours`]
 /// mirrors them; `None` where `x` is outside.
 #[inline]
@@ -318,7 +335,15 @@ fn row_neighbours(rows: [&[u16]; 3], x: usize) -> Option<(u16, [u16; 8])> {
 /// directional pipeline's time at threshold 64).
 #[inline]
 fn sorted8(mut values: [u16; 8]) -> [u16; 8] {
-    const EXCHANGES: [(usize, usize); 19] = [
+    // Written out, not a loop over a table of pairs: LLVM kept that loop (19 iterations,
+    // past its unrolling limit), with a bounds check per exchange and the values in memory.
+    macro_rules! exchanges {
+        ($(($a:literal, $b:literal)),*) => {$(
+            let (lo, hi) = (values[$a].min(values[$b]), values[$a].max(values[$b]));
+            (values[$a], values[$b]) = (lo, hi);
+        )*};
+    }
+    exchanges!(
         (0, 1),
         (2, 3),
         (4, 5),
@@ -337,12 +362,8 @@ fn sorted8(mut values: [u16; 8]) -> [u16; 8] {
         (3, 6),
         (2, 4),
         (3, 5),
-        (3, 4),
-    ];
-    for (a, b) in EXCHANGES {
-        let (lo, hi) = (values[a].min(values[b]), values[a].max(values[b]));
-        (values[a], values[b]) = (lo, hi);
-    }
+        (3, 4)
+    );
     values
 }
 
