@@ -181,24 +181,14 @@ pub(crate) fn correct_span(
                 .get(first)
                 .is_some_and(|d| (d.y as usize) <= y + 2)
         };
-        // Rows with a same-colour row above and below (or its mirror about the pixel, as
-        // `neighbours` mirrors: row y + 2 stands for y - 2 in the top two rows, y - 2 for
-        // y + 2 in the bottom two) and no static defect near give every pixel eight usable
-        // neighbours (mirrored at the sides too): the interior columns lo..hi take the
-        // vectorised detection below, the pixels it flags and the two at each side
-        // `sorted8`. Everything else takes the general rule. (The top and bottom rows had
-        // taken it, a sort per pixel: 2 % of the float directional pipeline's time.)
-        let above = if y >= 2 {
-            Some(y - 2)
-        } else {
-            (y + 2 < h).then_some(y + 2)
-        };
-        let below = if y + 2 < h {
-            Some(y + 2)
-        } else {
-            y.checked_sub(2)
-        };
-        let rows = match (above, below) {
+        // Rows with a same-colour row above and below (or its mirror about the pixel, by
+        // the `mirror_about` that `neighbours` uses: row y + 2 stands for y - 2 in the top
+        // two rows, y - 2 for y + 2 in the bottom two) and no static defect near give every
+        // pixel eight usable neighbours (mirrored at the sides too): the interior columns
+        // lo..hi take the vectorised detection below, the pixels it flags and the two at
+        // each side `sorted8`. Everything else takes the general rule. (The top and bottom
+        // rows had taken it, a sort per pixel: 2 % of the float directional pipeline's time.)
+        let rows = match (mirror_about(y, -2, h), mirror_about(y, 2, h)) {
             (Some(above), Some(below)) if w >= 5 && !static_near => {
                 Some([mosaic.row(above), mosaic.row(y), mosaic.row(below)])
             }
@@ -280,8 +270,9 @@ const DETECT_BLOCK: usize = 128;
 /// Flags (1, else 0) the pixels `x0..x0 + flags.len()` (all at least two from the sides)
 /// that dynamic detection would replace: above the second-largest of the eight same-colour
 /// neighbours by more than `threshold`, or below the second-smallest by more. `rows` are rows
-/// `y - 2`, `y` and `y + 2` (or their mirrors at the top and bottom). Branch-free over contiguous slices so it vectorises; saturating
-/// `u16` sums give the comparisons of the `u32` ones in [`dynamic_replacement`].
+/// `y - 2`, `y` and `y + 2` (or their mirrors at the top and bottom). Branch-free over
+/// contiguous slices so it vectorises; saturating `u16` sums give the comparisons of the
+/// `u32` ones in [`dynamic_replacement`].
 #[inline(always)]
 fn detect_interior(rows: [&[u16]; 3], x0: usize, threshold: u16, flags: &mut [u8]) {
     let n = flags.len();
@@ -305,9 +296,9 @@ fn detect_interior(rows: [&[u16]; 3], x0: usize, threshold: u16, flags: &mut [u8
     }
 }
 
-/// Column `x` of `rows` (rows `y - 2`, `y` and `y + 2` or their mirrors, at least 5 wide) and its eight
-/// same-colour neighbours, the columns past a side mirrored about `x` as [`neighbours`]
-/// mirrors them; `None` where `x` is outside.
+/// Column `x` of `rows` (rows `y - 2`, `y` and `y + 2` or their mirrors, at least 5 wide)
+/// and its eight same-colour neighbours, the columns past a side mirrored about `x` as
+/// [`neighbours`] mirrors them; `None` where `x` is outside.
 #[inline]
 fn row_neighbours(rows: [&[u16]; 3], x: usize) -> Option<(u16, [u16; 8])> {
     let w = rows[1].len();

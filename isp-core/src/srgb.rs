@@ -14,19 +14,11 @@ pub const LINEAR_THRESHOLD: f32 = 0.003_130_8;
 /// Encoded value above which the power segment applies.
 pub const ENCODED_THRESHOLD: f32 = 0.040_45;
 
-fn clamp01(x: f32) -> f32 {
-    if x > 0.0 {
-        x.min(1.0)
-    } else {
-        0.0 // also NaN
-    }
-}
-
-/// `x` clamped to `[0, 1]`, NaN and -0 as 0: what [`EncodeThresholds8::code_clamped`] takes.
-/// The same value as the clamp inside [`encode`], written as two selects so that a loop of it
-/// vectorises.
+/// `x` clamped to `[0, 1]`, NaN and -0 as 0: the clamp [`encode`], [`decode`] and
+/// [`EncodeThresholds8::code`] apply, and what [`EncodeThresholds8::code_clamped`] takes.
+/// Written as two selects so that a loop of it vectorises.
 #[inline(always)]
-pub fn clamp_for_code(x: f32) -> f32 {
+pub fn clamp_unit(x: f32) -> f32 {
     let below_one = if x < 1.0 { x } else { 1.0 };
     if x > 0.0 {
         below_one
@@ -37,21 +29,21 @@ pub fn clamp_for_code(x: f32) -> f32 {
 
 /// Linear light in `[0, 1]` to the sRGB signal in `[0, 1]`.
 pub fn encode(linear: f32) -> f32 {
-    let x = clamp01(linear);
+    let x = clamp_unit(linear);
     if x <= LINEAR_THRESHOLD {
         12.92 * x
     } else {
-        clamp01(1.055 * math::powf(x, 1.0 / 2.4) - 0.055)
+        clamp_unit(1.055 * math::powf(x, 1.0 / 2.4) - 0.055)
     }
 }
 
 /// The sRGB signal in `[0, 1]` to linear light in `[0, 1]`.
 pub fn decode(encoded: f32) -> f32 {
-    let v = clamp01(encoded);
+    let v = clamp_unit(encoded);
     if v <= ENCODED_THRESHOLD {
         v / 12.92
     } else {
-        clamp01(math::powf((v + 0.055) / 1.055, 2.4))
+        clamp_unit(math::powf((v + 0.055) / 1.055, 2.4))
     }
 }
 
@@ -326,11 +318,11 @@ impl EncodeThresholds8 {
     /// [`exact_code8`].
     #[inline(always)]
     pub fn code(&self, x: f32) -> u8 {
-        self.code_clamped(clamp01(x))
+        self.code_clamped(clamp_unit(x))
     }
 
     /// [`EncodeThresholds8::code`] of an `x` already clamped: the same code wherever `x` is
-    /// what [`clamp_for_code`] returns (a value in `[0, 1]`, never -0 or NaN), so a caller
+    /// what [`clamp_unit`] returns (a value in `[0, 1]`, never -0 or NaN), so a caller
     /// can clamp a row in a vector loop and look the codes up after. Any other `x` gives some
     /// code, without a panic.
     #[inline(always)]

@@ -522,7 +522,7 @@ fn encode_thresholds_give_the_exact_codes() {
     for b in (0..=1.0f32.to_bits()).step_by(4099) {
         let x = f32::from_bits(b);
         assert_eq!(codes.code(x), exact_code8(x), "x = {x:e}");
-        assert_eq!(codes.code_clamped(srgb::clamp_for_code(x)), codes.code(x));
+        assert_eq!(codes.code_clamped(srgb::clamp_unit(x)), codes.code(x));
     }
     for x in [
         0.0f32,
@@ -541,7 +541,7 @@ fn encode_thresholds_give_the_exact_codes() {
     ] {
         assert_eq!(codes.code(x), exact_code8(x), "x = {x}");
         // The vector loops' clamp, then the lookup without one: the same code.
-        let clamped = srgb::clamp_for_code(x);
+        let clamped = srgb::clamp_unit(x);
         assert!((0.0..=1.0).contains(&clamped) && clamped.to_bits() <= 1.0f32.to_bits());
         assert_eq!(codes.code_clamped(clamped), exact_code8(x), "x = {x}");
     }

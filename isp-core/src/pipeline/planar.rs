@@ -307,7 +307,7 @@ impl Planar for FloatPipeline<'_> {
 
     #[inline(always)]
     fn clamp_for_code8(v: f32) -> f32 {
-        srgb::clamp_for_code(v)
+        srgb::clamp_unit(v)
     }
 
     #[inline(always)]
