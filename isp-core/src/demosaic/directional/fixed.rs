@@ -491,10 +491,8 @@ impl Frame {
         for (span, first, second) in lines {
             let out = span.out(p.class.row_mut(r));
             let n = out.len();
-            let (Some(first_blocks), Some(second_blocks)) = (
-                Blocks::<_, L>::new(&first, n),
-                Blocks::<_, L>::new(&second, n),
-            ) else {
+            let blocks = Blocks::<_, L>::new(&first, n).zip(Blocks::<_, L>::new(&second, n));
+            let Some((first_blocks, second_blocks)) = blocks else {
                 // Fewer than `L` sites.
                 for (i, class) in out.iter_mut().enumerate() {
                     *class = line_class::<W>(at(&first, i), at(&second, i));
@@ -587,30 +585,35 @@ impl Frame {
         let t = self.chroma_taps(r, &p.mosaic, &p.green, &p.class);
         let out = t.span.out(p.opposite.row_mut(r));
         let n = out.len();
-        let blocks = (
-            Blocks::<_, L>::new(&[t.class], n),
-            Blocks::<_, L>::new(&t.class_around, n),
-            Blocks::<_, L>::new(&t.chroma_p, n),
-            Blocks::<_, L>::new(&t.green_p, n),
-            Blocks::<_, L>::new(&t.chroma_q, n),
-            Blocks::<_, L>::new(&t.green_q, n),
-        );
-        let (
-            Some(class),
-            Some(around),
-            Some(chroma_p),
-            Some(green_p),
-            Some(chroma_q),
-            Some(green_q),
-        ) = blocks
-        else {
-            // Fewer than `L` sites.
+        if n < L {
             for (i, opposite) in out.iter_mut().enumerate() {
                 let class = (t.class[i], at(&t.class_around, i));
                 let p = (at(&t.chroma_p, i), at(&t.green_p, i));
                 let q = (at(&t.chroma_q, i), at(&t.green_q, i));
                 *opposite = opposite_site::<W>(class, p, q);
             }
+            return;
+        }
+        // One statement each, not one pattern over a tuple of `Option`s: LLVM kept that tuple
+        // in memory, and each tap's block then took a compare, a branch and a reload of the
+        // tap's length (53 of them per block at green sites). `new` fails only below `L`
+        // sites, handled above, or for a tap shorter than the span, which `Span` never gives.
+        let Some(class) = Blocks::<_, L>::new(&[t.class], n) else {
+            return;
+        };
+        let Some(around) = Blocks::<_, L>::new(&t.class_around, n) else {
+            return;
+        };
+        let Some(chroma_p) = Blocks::<_, L>::new(&t.chroma_p, n) else {
+            return;
+        };
+        let Some(green_p) = Blocks::<_, L>::new(&t.green_p, n) else {
+            return;
+        };
+        let Some(chroma_q) = Blocks::<_, L>::new(&t.chroma_q, n) else {
+            return;
+        };
+        let Some(green_q) = Blocks::<_, L>::new(&t.green_q, n) else {
             return;
         };
         for_each_block::<L>(
@@ -640,32 +643,7 @@ impl Frame {
         let [red, _, blue] = &mut p.out_rgb;
         let (red_g, blue_g) = (t.span.out(red), t.span.out(blue));
         let n = red_g.len();
-        let blocks = (
-            (
-                Blocks::<_, L>::new(&[t.class], n),
-                Blocks::<_, L>::new(&t.class_around, n),
-            ),
-            (
-                Blocks::<_, L>::new(&t.green_v, n),
-                Blocks::<_, L>::new(&t.green_h, n),
-            ),
-            (
-                Blocks::<_, L>::new(&t.red_v, n),
-                Blocks::<_, L>::new(&t.red_h, n),
-            ),
-            (
-                Blocks::<_, L>::new(&t.blue_v, n),
-                Blocks::<_, L>::new(&t.blue_h, n),
-            ),
-        );
-        let (
-            (Some(class), Some(around)),
-            (Some(green_v), Some(green_h)),
-            (Some(red_v), Some(red_h)),
-            (Some(blue_v), Some(blue_h)),
-        ) = blocks
-        else {
-            // Fewer than `L` sites.
+        if n < L {
             for i in 0..n {
                 let class = (t.class[i], at(&t.class_around, i));
                 let green = [at(&t.green_v, i), at(&t.green_h, i)];
@@ -673,6 +651,31 @@ impl Frame {
                 let blue = [at(&t.blue_v, i), at(&t.blue_h, i)];
                 [red_g[i], blue_g[i]] = green_site::<W>(class, green, red, blue);
             }
+            return;
+        }
+        // One statement each: see `chroma_row_fixed`.
+        let Some(class) = Blocks::<_, L>::new(&[t.class], n) else {
+            return;
+        };
+        let Some(around) = Blocks::<_, L>::new(&t.class_around, n) else {
+            return;
+        };
+        let Some(green_v) = Blocks::<_, L>::new(&t.green_v, n) else {
+            return;
+        };
+        let Some(green_h) = Blocks::<_, L>::new(&t.green_h, n) else {
+            return;
+        };
+        let Some(red_v) = Blocks::<_, L>::new(&t.red_v, n) else {
+            return;
+        };
+        let Some(red_h) = Blocks::<_, L>::new(&t.red_h, n) else {
+            return;
+        };
+        let Some(blue_v) = Blocks::<_, L>::new(&t.blue_v, n) else {
+            return;
+        };
+        let Some(blue_h) = Blocks::<_, L>::new(&t.blue_h, n) else {
             return;
         };
         for_each_block::<L>(
@@ -722,12 +725,21 @@ fn green_site<W: Wide>(
 ) -> [i32; 2] {
     let c = refined(class.0, class.1);
     let [gv, gh] = green;
-    let estimate = |along: [[i32; 4]; 2]| {
-        let vertical = pair_estimate::<W>(along[0], gv);
-        let horizontal = pair_estimate::<W>(along[1], gh);
-        steered(gv[2], c, vertical, horizontal)
-    };
-    [estimate(red), estimate(blue)]
+    [
+        steered_pair::<W>(c, gv, gh, red),
+        steered_pair::<W>(c, gv, gh, blue),
+    ]
+}
+
+/// One chroma at a green site from its samples along the column and the row (`along`) and
+/// the green there (`gv`, `gh`), steered by the classifier `c`. A function marked to inline,
+/// not a closure: in the pipeline's AVX2 entry LLVM left a closure here out of line, a call
+/// per lane.
+#[inline(always)]
+fn steered_pair<W: Wide>(c: i32, gv: [i32; 5], gh: [i32; 5], along: [[i32; 4]; 2]) -> i32 {
+    let vertical = pair_estimate::<W>(along[0], gv);
+    let horizontal = pair_estimate::<W>(along[1], gh);
+    steered(gv[2], c, vertical, horizontal)
 }
 
 /// The float method's `refined` for Q16 classifiers: `own` if it is further from one half
