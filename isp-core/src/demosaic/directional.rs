@@ -771,9 +771,9 @@ pub(super) enum Block {
 /// block, then one ending at `n` that overlaps the block before and computes its shared sites
 /// again, to the same values (a stage writes only its own sites and reads nothing it
 /// writes). A plain loop over a span's sites ends in scalar code for up to `L` of them,
-/// which cost 10-20 times a vector site: about a sixth of the fixed method's time at 16. Two loops, not one
-/// over a chained iterator: in the first the compiler knows each block is within the taps
-/// (see [`Blocks`]).
+/// which cost 10-20 times a vector site: about a sixth of the fixed method's time at 16.
+/// Two loops, not one over a chained iterator, so the first has a plain count (see
+/// [`Blocks`] for the range checks that remain).
 #[inline(always)]
 pub(super) fn for_each_block<const L: usize>(n: usize, mut f: impl FnMut(Block)) {
     for b in 0..n / L {
@@ -786,10 +786,12 @@ pub(super) fn for_each_block<const L: usize>(n: usize, mut f: impl FnMut(Block))
 
 /// `N` taps of a span of `n` sites (a stage's inputs), as blocks of `L` sites.
 ///
-/// The whole blocks are held as the taps' chunks, each tap's the same count, so a loop over
-/// them (see [`for_each_block`]) reads each block with no range check: one per tap and
-/// block (a compare and a branch each, 14 to 31 per block) took about 3 % of the fixed
-/// pipeline's time.
+/// The whole blocks are held as the taps' chunks, each tap's the same count, so that in a
+/// loop over them (see [`for_each_block`]) the taps' range checks merge into about one per
+/// block: LLVM 22 keeps `b < count` inside `for b in 0..count`, but holds the one count in a
+/// register. Build each stage's `Blocks` in a statement of its own: held in a tuple of
+/// `Option`s they stayed on the stack, and each tap's block took a reload of its length, a
+/// compare and a branch (53 per block at green sites).
 pub(super) struct Blocks<'a, const N: usize, const L: usize> {
     whole: [&'a [[i32; L]]; N],
     last: [&'a [i32; L]; N],
