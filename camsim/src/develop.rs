@@ -783,12 +783,18 @@ fn fixed_dispatch<O: OutputSample>(
         return unsafe { pipeline.run_input_avx512(input, rows, scratch, out) };
     }
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has just been found to support AVX2, the one target feature
+    if has_avx2_fma() {
+        // SAFETY: the CPU has just been found to support AVX2 and FMA, the target features
         // `run_input_avx2` is compiled for.
         return unsafe { pipeline.run_input_avx2(input, rows, scratch, out) };
     }
     pipeline.run_input(input, rows, scratch, out)
+}
+
+/// Whether the CPU has AVX2 and FMA, the features of the pipelines' `run_input_avx2`.
+#[cfg(target_arch = "x86_64")]
+fn has_avx2_fma() -> bool {
+    std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
 }
 
 /// The float pipeline in the fastest build this CPU runs, as [`fixed_dispatch`].
@@ -805,8 +811,8 @@ fn float_dispatch<O: OutputSample>(
         return unsafe { pipeline.run_input_avx512(input, rows, scratch, out) };
     }
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has just been found to support AVX2, the one target feature
+    if has_avx2_fma() {
+        // SAFETY: the CPU has just been found to support AVX2 and FMA, the target features
         // `run_input_avx2` is compiled for.
         return unsafe { pipeline.run_input_avx2(input, rows, scratch, out) };
     }

@@ -49,7 +49,7 @@ fn main() {
             let p = FixedPipeline::new(&config, 8).unwrap();
             let mut scratch = vec![0u16; len];
             if avx2 {
-                // SAFETY: AVX2 was detected at run time.
+                // SAFETY: AVX2 and FMA were detected at run time.
                 unsafe { p.run_input_avx2((&raw).into(), 0..h, &mut scratch, &mut view) }.unwrap();
             } else {
                 p.run(&raw, 0..h, &mut scratch, &mut view).unwrap();
@@ -58,7 +58,7 @@ fn main() {
             let p = FloatPipeline::new(&config).unwrap();
             let mut scratch = vec![0f32; len];
             if avx2 {
-                // SAFETY: AVX2 was detected at run time.
+                // SAFETY: AVX2 and FMA were detected at run time.
                 unsafe { p.run_input_avx2((&raw).into(), 0..h, &mut scratch, &mut view) }.unwrap();
             } else {
                 p.run(&raw, 0..h, &mut scratch, &mut view).unwrap();
@@ -75,7 +75,8 @@ fn main() {
 
 fn avx2_detected() -> bool {
     #[cfg(target_arch = "x86_64")]
-    return std::arch::is_x86_feature_detected!("avx2");
+    return std::arch::is_x86_feature_detected!("avx2")
+        && std::arch::is_x86_feature_detected!("fma");
     #[cfg(not(target_arch = "x86_64"))]
     false
 }

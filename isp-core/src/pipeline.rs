@@ -576,16 +576,18 @@ impl<'a> FloatPipeline<'a> {
         )
     }
 
-    /// As [`FloatPipeline::run_input`], compiled for AVX2: the same output, faster where the
-    /// configuration takes the planar schedule (see the module docs), whose loops then run
-    /// eight lanes wide.
+    /// As [`FloatPipeline::run_input`], compiled for AVX2 and FMA: the same output, faster
+    /// where the configuration takes the planar schedule (see the module docs), whose loops
+    /// then run eight lanes wide, and whose 8-bit encoding evaluates the curve eight samples
+    /// at a time (`srgb::avx2`; FMA only there, so every other result is the same).
     ///
     /// # Safety
     ///
-    /// The CPU must support AVX2 (a function with a target feature is unsafe to call from code
-    /// compiled without it). Check first with `is_x86_feature_detected!("avx2")`.
+    /// The CPU must support AVX2 and FMA (a function with a target feature is unsafe to call
+    /// from code compiled without it). Check first with `is_x86_feature_detected!` for
+    /// "avx2" and "fma".
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,fma")]
     pub fn run_input_avx2<O: OutputSample>(
         &self,
         input: Input<'_>,
@@ -600,7 +602,7 @@ impl<'a> FloatPipeline<'a> {
             scratch,
             out,
             |p, r, y, s, o| planar::run_directional_avx2(p, r, y, s, o),
-            planar::encode_row,
+            |p, planes, h, o| planar::encode_row_avx2(p, planes, h, o),
         )
     }
 
@@ -979,10 +981,11 @@ impl<'a> FixedPipeline<'a> {
     ///
     /// # Safety
     ///
-    /// The CPU must support AVX2 (a function with a target feature is unsafe to call from code
-    /// compiled without it). Check first with `is_x86_feature_detected!("avx2")`.
+    /// The CPU must support AVX2 and FMA (a function with a target feature is unsafe to call
+    /// from code compiled without it; FMA for the float path's encoder, which the directional
+    /// entry shares). Check first with `is_x86_feature_detected!` for "avx2" and "fma".
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,fma")]
     pub fn run_input_avx2<O: OutputSample>(
         &self,
         input: Input<'_>,
@@ -996,7 +999,7 @@ impl<'a> FixedPipeline<'a> {
     /// [`FixedPipeline::run_input_avx2`] with `encode` as the encoding of a row (of the
     /// methods other than directional).
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,fma")]
     fn run_input_avx2_encoding<O: OutputSample>(
         &self,
         input: Input<'_>,

@@ -7,6 +7,8 @@
 use crate::math;
 
 #[cfg(target_arch = "x86_64")]
+pub(crate) mod avx2;
+#[cfg(target_arch = "x86_64")]
 pub(crate) mod avx512;
 
 /// Linear value above which the power segment applies.
@@ -251,6 +253,9 @@ pub struct EncodeThresholds8 {
     /// The code of the first float of each bucket of 2^16 (`x.to_bits() >> 16`), up to 1.0;
     /// a power of two long, so a masked index needs no bounds check.
     bucket: [u8; BUCKET_SLOTS],
+    /// The curve's approximation for the AVX2 encoder ([`avx2`]).
+    #[cfg(target_arch = "x86_64")]
+    power: avx2::PowerTables,
 }
 
 /// Bits below a bucket's index: buckets of 2^16 floats.
@@ -311,6 +316,8 @@ impl EncodeThresholds8 {
         Self {
             threshold_bits: thresholds.map(f32::to_bits),
             bucket,
+            #[cfg(target_arch = "x86_64")]
+            power: avx2::PowerTables::new(),
         }
     }
 

@@ -16,7 +16,8 @@
 //! - The demosaiced row is three planes (R, G, B), each even half then odd half, one filter
 //!   (a tap table of `demosaic`) per plane and half; the colour matrix runs on the planes; the
 //!   encoding (table loads, the one gather; in the fixed path's AVX-512 entries a search in
-//!   registers, [`srgb::avx512`]) writes the interleaved output. The highlight
+//!   registers, [`srgb::avx512`]; in the float path's AVX2 entries the curve evaluated,
+//!   [`srgb::avx2`]) writes the interleaved output. The highlight
 //!   stage, when on, is a scalar loop over the planes (it tests each pixel against the knee).
 //! - The fixed path keeps the general engine's `u64`/`i64` products in `u32`/`i32` lanes by
 //!   splitting each Q16 constant into its integer and fraction parts ([`MulQ16`],
@@ -70,6 +71,16 @@ pub(super) trait Planar: Path<P: PartialOrd> {
         &'a self,
         _planes: &'a [Self::P],
     ) -> Option<(&'a srgb::EncodeLut, &'a [u16])> {
+        None
+    }
+    /// Where [`Self::code8_clamped`] is [`srgb::EncodeThresholds8::code_clamped`] of `f32`
+    /// samples (the float path), those thresholds and `planes` as `f32`: for the vectorised
+    /// encoder.
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    fn thresholds8_planes<'a>(
+        &'a self,
+        _planes: &'a [Self::P],
+    ) -> Option<(&'a srgb::EncodeThresholds8, &'a [f32])> {
         None
     }
     /// The highlight stage's parameters.
@@ -315,6 +326,13 @@ impl Planar for FloatPipeline<'_> {
         u32::from(self.codes8.code_clamped(v))
     }
 
+    fn thresholds8_planes<'a>(
+        &'a self,
+        planes: &'a [f32],
+    ) -> Option<(&'a srgb::EncodeThresholds8, &'a [f32])> {
+        Some((&self.codes8, planes))
+    }
+
     type Knee = f32;
 
     fn knee(&self) -> Option<f32> {
@@ -434,9 +452,10 @@ pub(super) fn run_directional_general<A: Planar, O: OutputSample>(
     run_directional::<A, O, LANES>(path, raw, rows, scratch, out, encode_row)
 }
 
-/// [`run_directional`] out of line, compiled for AVX2.
+/// [`run_directional`] out of line, compiled for AVX2 (and FMA, for the float path's
+/// encoder, [`encode_row_avx2`]).
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,fma")]
 #[inline(never)]
 pub(super) fn run_directional_avx2<A: Planar, O: OutputSample>(
     path: &A,
@@ -445,7 +464,10 @@ pub(super) fn run_directional_avx2<A: Planar, O: OutputSample>(
     scratch: &mut [A::P],
     out: &mut RgbViewMut<'_, O>,
 ) -> Result<(), IspError> {
-    run_directional::<A, O, LANES>(path, raw, rows, scratch, out, encode_row)
+    let encode = |path: &A, planes: &[A::P], halves: Halves, out: &mut [O]| {
+        encode_row_avx2(path, planes, halves, out)
+    };
+    run_directional::<A, O, LANES>(path, raw, rows, scratch, out, encode)
 }
 
 /// [`run_directional`] out of line, compiled for AVX-512 (F, BW, VL, DQ).
@@ -465,6 +487,27 @@ pub(super) fn run_directional_avx512<A: Planar, O: OutputSample>(
     run_directional::<A, O, LANES_AVX512>(path, raw, rows, scratch, out, encode)
 }
 
+/// [`encode_row`] with AVX2 and FMA where the path's encoding is the float path's 8-bit
+/// thresholds: the same codes, the curve evaluated eight samples at a time instead of two
+/// table loads per sample ([`srgb::avx2::encode_halves8`]).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+pub(super) fn encode_row_avx2<A: Planar, O: OutputSample>(
+    path: &A,
+    planes: &[A::P],
+    halves: Halves,
+    out: &mut [O],
+) {
+    match (path.thresholds8_planes(planes), O::as_bytes_mut(out)) {
+        (Some((codes, planes)), Some(bytes)) => {
+            let w = halves.even + halves.odd;
+            let [r, g, b] = [0, 1, 2].map(|c| &planes[c * w..(c + 1) * w]);
+            srgb::avx2::encode_halves8(codes, [r, g, b], halves.even, halves.odd, bytes)
+        }
+        _ => encode_row(path, planes, halves, out),
+    }
+}
+
 /// [`encode_row`] with AVX-512 (F and BW) where the path's encoding is the fixed path's
 /// 8-bit table: the same codes without a table load per sample
 /// ([`srgb::avx512::encode_halves8`]).
@@ -482,7 +525,7 @@ pub(super) fn encode_row_avx512<A: Planar, O: OutputSample>(
             let [r, g, b] = [0, 1, 2].map(|c| &planes[c * w..(c + 1) * w]);
             srgb::avx512::encode_halves8(lut, [r, g, b], halves.even, halves.odd, bytes)
         }
-        _ => encode_row(path, planes, halves, out),
+        _ => encode_row_avx2(path, planes, halves, out),
     }
 }
 
