@@ -11,6 +11,60 @@ pub(crate) mod avx2;
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod avx512;
 
+/// One plane of a row in halves (its `even` even columns, then its `odd` odd columns) as
+/// chunks of `N` samples: the first `odd` even columns, then the odd columns, whole chunks
+/// only. The vector encoders' pixel pairs.
+#[cfg(target_arch = "x86_64")]
+fn chunked_halves<T, const N: usize>(plane: &[T], even: usize, odd: usize) -> [&[[T; N]]; 2] {
+    [
+        plane[..odd].as_chunks().0,
+        plane[even..even + odd].as_chunks().0,
+    ]
+}
+
+/// Pixel pairs `first..first + out.len() / 6` of a row of planes in halves (see
+/// [`chunked_halves`]), each sample through `code`, interleaved into `out`: what the vector
+/// encoders write where their vectors do not reach.
+#[cfg(target_arch = "x86_64")]
+fn encode_pairs<T: Copy>(
+    code: impl Fn(T) -> u8,
+    planes: [&[T]; 3],
+    even: usize,
+    first: usize,
+    out: &mut [u8],
+) {
+    let [r, g, b] = planes;
+    for (k, px) in out.chunks_exact_mut(6).enumerate() {
+        let (e, o) = (first + k, even + first + k);
+        px.copy_from_slice(&[
+            code(r[e]),
+            code(g[e]),
+            code(b[e]),
+            code(r[o]),
+            code(g[o]),
+            code(b[o]),
+        ]);
+    }
+}
+
+/// The pairs from `done` to `odd` and, for an odd width, the last column: the rest of a row
+/// after a vector encoder's whole chunks. `out` holds the row (`3 (even + odd)` bytes).
+#[cfg(target_arch = "x86_64")]
+fn encode_rest<T: Copy>(
+    code: impl Fn(T) -> u8,
+    planes: [&[T]; 3],
+    even: usize,
+    odd: usize,
+    done: usize,
+    out: &mut [u8],
+) {
+    encode_pairs(&code, planes, even, done, &mut out[6 * done..6 * odd]);
+    if even > odd {
+        let (i, w) = (even - 1, even + odd);
+        out[3 * (w - 1)..3 * w].copy_from_slice(&planes.map(|p| code(p[i])));
+    }
+}
+
 /// Linear value above which the power segment applies.
 pub const LINEAR_THRESHOLD: f32 = 0.003_130_8;
 /// Encoded value above which the power segment applies.

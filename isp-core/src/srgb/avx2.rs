@@ -29,7 +29,7 @@ use core::arch::x86_64::*;
 
 use bytemuck::must_cast;
 
-use super::EncodeThresholds8;
+use super::{chunked_halves, encode_pairs, encode_rest, EncodeThresholds8};
 
 /// Distance from a whole number below which a value is looked up, not rounded. The
 /// approximation and the exact encoding's rounding of its own `f32` products differ by under
@@ -205,13 +205,10 @@ pub(crate) fn encode_halves8(
     let vectors = Vectors::new(&codes.power);
     let masks = INTERLEAVE.map(must_cast::<[i8; 32], __m256i>);
     let [r, g, b] = planes;
-    fn halves(p: &[f32], even: usize, odd: usize) -> [&[[f32; 8]]; 2] {
-        [p[..odd].as_chunks().0, p[even..even + odd].as_chunks().0]
-    }
     let ([re, ro], [ge, go], [be, bo]) = (
-        halves(r, even, odd),
-        halves(g, even, odd),
-        halves(b, even, odd),
+        chunked_halves::<_, 8>(r, even, odd),
+        chunked_halves::<_, 8>(g, even, odd),
+        chunked_halves::<_, 8>(b, even, odd),
     );
     let code = |v: f32| codes.code_clamped(v);
     let (chunks, _) = out[..6 * odd].as_chunks_mut::<48>();
@@ -232,17 +229,7 @@ pub(crate) fn encode_halves8(
         let (blue, undecided_blue) = plane(be, bo);
         let undecided = _mm256_or_ps(_mm256_or_ps(undecided_red, undecided_green), undecided_blue);
         if _mm256_movemask_ps(undecided) != 0 {
-            for k in 0..8 {
-                let at = 8 * i + k;
-                dst[6 * k..6 * k + 6].copy_from_slice(&[
-                    code(r[at]),
-                    code(g[at]),
-                    code(b[at]),
-                    code(r[even + at]),
-                    code(g[even + at]),
-                    code(b[even + at]),
-                ]);
-            }
+            encode_pairs(code, planes, even, 8 * i, dst);
             continue;
         }
         let rg = _mm256_packus_epi16(red, green);
@@ -260,20 +247,7 @@ pub(crate) fn encode_halves8(
         dst[24..40].copy_from_slice(&first[16..]);
         dst[40..].copy_from_slice(&last[16..24]);
     }
-    for i in done..odd {
-        out[6 * i..6 * i + 6].copy_from_slice(&[
-            code(r[i]),
-            code(g[i]),
-            code(b[i]),
-            code(r[even + i]),
-            code(g[even + i]),
-            code(b[even + i]),
-        ]);
-    }
-    if even > odd {
-        let i = even - 1;
-        out[3 * (w - 1)..3 * w].copy_from_slice(&[code(r[i]), code(g[i]), code(b[i])]);
-    }
+    encode_rest(code, planes, even, odd, done, out);
 }
 
 #[cfg(test)]

@@ -13,7 +13,7 @@ use core::arch::x86_64::*;
 
 use bytemuck::must_cast;
 
-use super::{EncodeLut, SEARCH8_TABLES};
+use super::{chunked_halves, encode_rest, EncodeLut, SEARCH8_TABLES};
 
 /// The search tables as vectors, loaded once per row, and the first two steps' thresholds
 /// broadcast (those steps have one and two candidates: a compare and a blend, not a shift
@@ -141,13 +141,10 @@ pub(crate) fn encode_halves8(
     let ab = ab.map(must_cast::<[u16; 32], __m512i>);
     let c = c.map(must_cast::<[u16; 32], __m512i>);
     let [r, g, b] = planes;
-    fn halves(p: &[u16], even: usize, odd: usize) -> [&[[u16; 32]]; 2] {
-        [p[..odd].as_chunks().0, p[even..even + odd].as_chunks().0]
-    }
     let ([re, ro], [ge, go], [be, bo]) = (
-        halves(r, even, odd),
-        halves(g, even, odd),
-        halves(b, even, odd),
+        chunked_halves::<_, 32>(r, even, odd),
+        chunked_halves::<_, 32>(g, even, odd),
+        chunked_halves::<_, 32>(b, even, odd),
     );
     let (chunks, _) = out[..6 * odd].as_chunks_mut::<192>();
     let done = chunks.len() * 32;
@@ -166,21 +163,7 @@ pub(crate) fn encode_halves8(
         };
         *dst = must_cast([part(0), part(1), part(2)]);
     }
-    let code = |v: u16| lut.lookup8(v) as u8;
-    for i in done..odd {
-        out[6 * i..6 * i + 6].copy_from_slice(&[
-            code(r[i]),
-            code(g[i]),
-            code(b[i]),
-            code(r[even + i]),
-            code(g[even + i]),
-            code(b[even + i]),
-        ]);
-    }
-    if even > odd {
-        let i = even - 1;
-        out[3 * (w - 1)..3 * w].copy_from_slice(&[code(r[i]), code(g[i]), code(b[i])]);
-    }
+    encode_rest(|v: u16| lut.lookup8(v) as u8, planes, even, odd, done, out);
 }
 
 #[cfg(test)]
