@@ -77,8 +77,8 @@
 //!
 //! The common camera pipeline (a raw frame at least 8 pixels wide and 3 high; defect
 //! correction, black level, gain, white balance, bilinear, MHC or directional, highlights,
-//! colour matrix;
-//! 8-bit output; no shading grid, distortion correction, denoise, tone or sharpening) runs on
+//! colour matrix, sharpening;
+//! 8-bit output; no shading grid, distortion correction, denoise or tone) runs on
 //! a second schedule of the same stages: rows split into even and odd columns with reflected
 //! padding, so each stage is a loop over contiguous slices with constants fixed per loop, which
 //! the compiler vectorises. It gives the engine's output bit for bit (the fixed path keeps the
@@ -86,7 +86,11 @@
 //! engine's order); `run` and `run_input` choose it by themselves, and every other
 //! configuration runs on the engine. It needs no more scratch than the engine
 //! ([`scratch_len`], plus the directional rings with that method). The directional method
-//! runs there as its stream, fed the prepared rows and writing planes.
+//! runs there as its stream, fed the prepared rows and writing planes. With sharpening on,
+//! each row is encoded into a ring of three (encoded planes and their luma) one row ahead of
+//! the output, and the unsharp mask runs over the planes: the fixed path's 16-bit encoding
+//! (a branch-free table read) and the mask vectorise; the float path evaluates the exact
+//! curve per sample (`libm`'s `powf`), as the engine does, which dominates its time.
 //! [`FixedPipeline::run_input_avx2`] and [`FloatPipeline::run_input_avx2`] are the same entry
 //! compiled for AVX2, `run_input_avx512` for AVX-512 F/BW/VL/DQ (which only the directional
 //! method gains from; x86-64, unsafe to call without the features, so check them first, as
@@ -1596,8 +1600,17 @@ fn run_planar_or_engine<A: planar::Planar, O: OutputSample>(
         Input::Mosaic(raw) if planar::takes::<A, O>(path, &raw) => {
             check_rows(path, input, &rows, out)?;
             let w = raw.mosaic().width();
+            let sharpen_part = match path.sharpen_on() {
+                true => w.checked_mul(3 * SHARPEN_ROWS),
+                false => Some(0),
+            };
+            // What the engine would ask for, which covers the schedule's own needs.
             let needed = directional_len::<A::Directional>(path.method(), w)
-                .and_then(|part| scratch_len(w)?.checked_add(part))
+                .and_then(|part| {
+                    scratch_len(w)?
+                        .checked_add(part)?
+                        .checked_add(sharpen_part?)
+                })
                 .ok_or(IspError::InvalidParameter {
                     name: "width",
                     allowed: "a size that fits in memory",

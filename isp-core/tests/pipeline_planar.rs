@@ -1,6 +1,6 @@
 //! The planar schedule (the common camera pipeline over parity-split planar rows) is the
 //! general streaming engine, bit for bit, on both paths: for any frame size, stride, pattern, levels,
-//! defects, gains, colour matrix, demosaic method and band heights, in the baseline build and
+//! defects, gains, colour matrix, demosaic method, sharpening and band heights, in the baseline build and
 //! in the AVX2 and AVX-512 builds. Configurations the schedule does not take run on the engine either way,
 //! so they are checked too (the entry must not change them).
 
@@ -30,6 +30,7 @@ struct Case {
     ccm: [[f32; 3]; 3],
     method: Method,
     knee: f32,
+    sharpen: f32,
     bands: Vec<usize>,
 }
 
@@ -59,10 +60,23 @@ fn case() -> impl Strategy<Value = Case> {
                     Just(Method::Nearest)
                 ],
                 prop_oneof![3 => Just(1.0f32), 1 => 0.0f32..1.0],
+                prop_oneof![Just(0.0f32), 0.0f32..=4.0],
                 proptest::collection::vec(1usize..=h, 1..4),
             )
                 .prop_map(
-                    move |(black, data, defects, threshold, gain, wb, ccm, method, knee, bands)| {
+                    move |(
+                        black,
+                        data,
+                        defects,
+                        threshold,
+                        gain,
+                        wb,
+                        ccm,
+                        method,
+                        knee,
+                        sharpen,
+                        bands,
+                    )| {
                         Case {
                             w,
                             h,
@@ -78,6 +92,7 @@ fn case() -> impl Strategy<Value = Case> {
                             ccm,
                             method,
                             knee,
+                            sharpen,
                             bands,
                         }
                     },
@@ -107,6 +122,7 @@ fn outputs(c: &Case) -> [Vec<(&'static str, Vec<u8>)>; 2] {
         demosaic: c.method,
         highlight_knee: c.knee,
         ccm: c.ccm,
+        sharpen: c.sharpen,
         ..IspConfig::default()
     };
     let input = Input::from(&raw);
@@ -236,7 +252,10 @@ fn planar_schedule_matches_the_engine_on_a_wide_frame() {
             (64 + x * 3 + y * 5 + (state >> 26) as usize).min(4095) as u16
         })
         .collect();
-    for method in [Method::Mhc, Method::Bilinear, Method::Directional] {
+    let configurations = [Method::Mhc, Method::Bilinear, Method::Directional]
+        .into_iter()
+        .flat_map(|method| [(method, 0.0), (method, 1.5)]);
+    for (method, sharpen) in configurations {
         let c = Case {
             w,
             h,
@@ -252,6 +271,7 @@ fn planar_schedule_matches_the_engine_on_a_wide_frame() {
             ccm: [[1.6, -0.4, -0.2], [-0.3, 1.5, -0.2], [0.0, -0.5, 1.5]],
             method,
             knee: 1.0,
+            sharpen,
             bands: vec![5, 17],
         };
         for runs in outputs(&c) {
@@ -259,11 +279,14 @@ fn planar_schedule_matches_the_engine_on_a_wide_frame() {
             let distinct: std::collections::BTreeSet<u8> = engine.iter().copied().collect();
             assert!(
                 distinct.len() > 100,
-                "{method:?}: {engine_name} gives {} distinct codes",
+                "{method:?}, sharpen {sharpen}: {engine_name} gives {} distinct codes",
                 distinct.len()
             );
             for (name, out) in &runs[1..] {
-                assert!(out == engine, "{method:?}: {name} differs from the engine");
+                assert!(
+                    out == engine,
+                    "{method:?}, sharpen {sharpen}: {name} differs from the engine"
+                );
             }
         }
     }

@@ -1,5 +1,5 @@
 //! The common camera pipeline (defect correction, black level, gain, white balance, bilinear,
-//! MHC or directional, highlights, colour matrix, 8-bit sRGB), scheduled over planar rows so
+//! MHC or directional, highlights, colour matrix, 8-bit sRGB, sharpening), scheduled over planar rows so
 //! that every stage but the encoding is a loop over contiguous slices that the compiler
 //! vectorises. Both paths run it. The directional method is its own stream (see
 //! [`run_directional`]), between the same preparation and finish.
@@ -18,7 +18,13 @@
 //!   encoding (table loads, the one gather; in the fixed path's AVX-512 entries a search in
 //!   registers, [`srgb::avx512`]; in the float path's AVX2 entries the curve evaluated,
 //!   [`srgb::avx2`]) writes the interleaved output. The highlight
-//!   stage, when on, is a scalar loop over the planes (it tests each pixel against the knee).
+//!   stage, when on, is a loop over the planes without a branch per pixel, so it vectorises
+//!   too.
+//! - With sharpening on, each row after the colour matrix is encoded (16-bit codes in the
+//!   fixed path, the exact curve in `f32` in the float path) into a ring of three rows, with
+//!   its luma, one row ahead of the output; the unsharp mask then reads a site's left and
+//!   right neighbours from the other half and writes three planes of 8-bit codes, which one
+//!   pass interleaves ([`emit_rows`]).
 //! - The fixed path keeps the general engine's `u64`/`i64` products in `u32`/`i32` lanes by
 //!   splitting each Q16 constant into its integer and fraction parts ([`MulQ16`],
 //!   [`CcmSplit`]), which is exact.
@@ -83,6 +89,26 @@ pub(super) trait Planar: Path<P: PartialOrd> {
     ) -> Option<(&'a srgb::EncodeThresholds8, &'a [f32])> {
         None
     }
+    /// The sharpening stage's amount (the path's own form of it).
+    type Sharpen: Copy;
+    /// The sharpening stage's amount, if it is on.
+    fn sharpening(&self) -> Option<Self::Sharpen>;
+    /// A linear value from [`Planar::clamp_for_code8`] in the encoded domain the sharpening
+    /// stage works in ([`Path::encoded_row`]'s: the exact curve in `f32`, 16-bit codes).
+    fn encode_for_sharpening(&self, v: Self::P) -> Self::P;
+    /// The Rec. 709 luma of an encoded pixel, as [`Path::sharpen_row`] forms it.
+    fn luma(e: [Self::P; 3]) -> Self::P;
+    /// The detail the sharpening stage adds to each channel of a pixel, from the luma of the
+    /// 3x3 pixels around it, `luma[row][column]` (rows and columns -1, 0, 1), formed as
+    /// [`Path::sharpen_row`] forms it.
+    type Detail: Copy;
+    /// See [`Planar::Detail`].
+    fn detail(amount: Self::Sharpen, luma: [[Self::P; 3]; 3]) -> Self::Detail;
+    /// The 8-bit code of an encoded channel `e` with the detail added, clamped, as
+    /// [`Path::sharpen_row`] gives it (held as a `P`, which holds every code exactly).
+    fn sharpened_code8(e: Self::P, detail: Self::Detail) -> Self::P;
+    /// A code from [`Planar::sharpened_code8`] as an integer.
+    fn code_of(v: Self::P) -> u32;
     /// The highlight stage's parameters.
     type Knee: Copy;
     /// The highlight stage's parameters, if it is on (fetched once per frame).
@@ -185,7 +211,6 @@ impl Planar for FixedPipeline<'_> {
             && self.inverse_denoise.is_none()
             && self.saturation_q.is_none()
             && self.tone_lut.is_none()
-            && self.sharpen_q12.is_none()
             && self.encode.max() == 255
     }
 
@@ -245,6 +270,59 @@ impl Planar for FixedPipeline<'_> {
         Some((&self.encode, planes))
     }
 
+    type Sharpen = i32;
+
+    fn sharpening(&self) -> Option<i32> {
+        // The amount is at most 4 in Q12.
+        self.sharpen_q12.as_ref().map(|(amount, _)| *amount as i32)
+    }
+
+    #[inline(always)]
+    fn encode_for_sharpening(&self, v: u16) -> u16 {
+        match &self.sharpen_q12 {
+            // Codes of a 16-bit table fit u16.
+            Some((_, encode16)) => encode16.lookup16(v) as u16,
+            None => v,
+        }
+    }
+
+    #[inline(always)]
+    fn luma(e: [u16; 3]) -> u16 {
+        // The weights sum to 2^16, so the rounded luma is at most 65535.
+        ((super::LUMA_Q16[0] * u32::from(e[0])
+            + super::LUMA_Q16[1] * u32::from(e[1])
+            + super::LUMA_Q16[2] * u32::from(e[2])
+            + (1 << 15))
+            >> 16) as u16
+    }
+
+    type Detail = i32;
+
+    #[inline(always)]
+    fn detail(amount: i32, luma: [[u16; 3]; 3]) -> i32 {
+        let [up, mid, down] = luma.map(|row| row.map(i32::from));
+        let column = |k: usize| up[k] + mid[k] + mid[k] + down[k];
+        let blurred = column(0) + column(1) + column(1) + column(2);
+        // 16 times the detail, |d| < 2^21; times the Q12 amount (<= 2^14) it would pass
+        // 2^31, so with d = hi 2^16 + lo the rounded shift by 16 is amount hi plus the rounded
+        // top of amount lo (< 2^30): the engine's `i64` value.
+        let d = 16 * mid[1] - blurred;
+        let (hi, lo) = (d >> 16, (d & 0xFFFF) as u32);
+        amount * hi + ((amount as u32 * lo + (1 << 15)) >> 16) as i32
+    }
+
+    #[inline(always)]
+    fn sharpened_code8(e: u16, detail: i32) -> u16 {
+        let v = (i32::from(e) + detail).clamp(0, 65535) as u32;
+        // The engine's 8-bit output of a 16-bit code, rounded: < 2^24 before the division.
+        ((v * 255 + 32767) / 65535) as u16
+    }
+
+    #[inline(always)]
+    fn code_of(v: u16) -> u32 {
+        u32::from(v)
+    }
+
     type Knee = KneeQ16;
 
     fn knee(&self) -> Option<KneeQ16> {
@@ -279,7 +357,6 @@ impl Planar for FloatPipeline<'_> {
             && c.denoise == 0.0
             && c.tone.saturation_is_identity()
             && c.tone.curve_is_identity()
-            && c.sharpen == 0.0
     }
 
     fn steps(&self, raw: &RawFrame<'_>) -> [[FloatSteps; 2]; 2] {
@@ -333,6 +410,47 @@ impl Planar for FloatPipeline<'_> {
         Some((&self.codes8, planes))
     }
 
+    type Sharpen = f32;
+
+    fn sharpening(&self) -> Option<f32> {
+        let amount = self.config.sharpen;
+        (amount > 0.0).then_some(amount)
+    }
+
+    #[inline(always)]
+    fn encode_for_sharpening(&self, v: f32) -> f32 {
+        srgb::encode(v)
+    }
+
+    #[inline(always)]
+    fn luma(e: [f32; 3]) -> f32 {
+        let l = super::LUMA;
+        l[0] * e[0] + l[1] * e[1] + l[2] * e[2]
+    }
+
+    type Detail = f32;
+
+    #[inline(always)]
+    fn detail(amount: f32, luma: [[f32; 3]; 3]) -> f32 {
+        // The engine's sums, in its order.
+        let [up, mid, down] = luma;
+        let column = |k: usize| up[k] + mid[k] + mid[k] + down[k];
+        let blurred = column(0) + column(1) + column(1) + column(2);
+        amount * (mid[1] - blurred * (1.0 / 16.0))
+    }
+
+    #[inline(always)]
+    fn sharpened_code8(e: f32, detail: f32) -> f32 {
+        let v = (e + detail).clamp(0.0, 1.0);
+        // `OutputSample::from_encoded` for `u8`: a half added, truncated.
+        ((v * 255.0 + 0.5) as u32) as f32
+    }
+
+    #[inline(always)]
+    fn code_of(v: f32) -> u32 {
+        v as u32
+    }
+
     type Knee = f32;
 
     fn knee(&self) -> Option<f32> {
@@ -346,10 +464,27 @@ impl Planar for FloatPipeline<'_> {
     }
 }
 
-/// Scratch elements the schedule uses: five padded mosaic rows and one planar RGB row
-/// (within [`super::scratch_len`] for every width it takes).
-fn scratch_needed(w: usize) -> usize {
-    MOSAIC_ROWS * Halves::new(w).len() + 3 * w
+/// Rows of the sharpening stage's ring: the encoded rows above, at and below an output row.
+const SHARPEN_ROWS: usize = 3;
+
+/// Elements of one row of the sharpening ring: the three encoded planes and their luma.
+fn sharpen_slot_len(w: usize) -> usize {
+    4 * w
+}
+
+/// Scratch elements the schedule uses: five padded mosaic rows, one planar RGB row and, with
+/// sharpening, its ring (within [`super::scratch_len`] plus the engine's sharpening rows for
+/// every width it takes).
+fn scratch_needed(w: usize, sharpen: bool) -> usize {
+    MOSAIC_ROWS * Halves::new(w).len() + 3 * w + sharpen_part(w, sharpen)
+}
+
+/// Elements of the sharpening ring, 0 without sharpening.
+fn sharpen_part(w: usize, sharpen: bool) -> usize {
+    match sharpen {
+        true => SHARPEN_ROWS * sharpen_slot_len(w),
+        false => 0,
+    }
 }
 
 /// Runs rows `rows` of `raw` through `path` into `out` on the planar schedule; the caller
@@ -367,60 +502,113 @@ pub(super) fn run<A: Planar, O: OutputSample>(
     let (w, h, pattern) = (mosaic.width(), mosaic.height(), mosaic.pattern());
     let halves = Halves::new(w);
     let row_len = halves.len();
-    if scratch.len() < scratch_needed(w) {
+    let needed = scratch_needed(w, path.sharpening().is_some());
+    if scratch.len() < needed {
         return Err(IspError::BufferTooSmall {
-            needed: scratch_needed(w),
+            needed,
             provided: scratch.len(),
         });
     }
     let (ring, rest) = scratch.split_at_mut(MOSAIC_ROWS * row_len);
-    let planes = &mut rest[..3 * w];
+    let (planes, sharpen_ring) = rest.split_at_mut(3 * w);
     let steps = path.steps(raw);
-    let matrix = path.matrix();
     let knee = path.knee();
+    let method = path.method();
     let mut tags = [usize::MAX; MOSAIC_ROWS];
-    for y in rows.clone() {
-        for dm in -2..=2isize {
-            let my = reflect(y as isize + dm, h);
-            let slot = my % MOSAIC_ROWS;
-            if tags[slot] != my {
-                let row = &mut ring[slot * row_len..(slot + 1) * row_len];
-                prepare_row::<A>(path.dpc(), raw, my, steps[my & 1], halves, row);
-                tags[slot] = my;
+    emit_rows(
+        path,
+        h,
+        halves,
+        rows,
+        planes,
+        sharpen_ring,
+        out,
+        encode,
+        // Inlined, so that it is compiled for the entry's target features (a closure out of
+        // line is compiled for the baseline target).
+        #[inline(always)]
+        |y: usize, planes: &mut [A::P]| {
+            for dm in -2..=2isize {
+                let my = reflect(y as isize + dm, h);
+                let slot = my % MOSAIC_ROWS;
+                if tags[slot] != my {
+                    let row = &mut ring[slot * row_len..(slot + 1) * row_len];
+                    prepare_row::<A>(path.dpc(), raw, my, steps[my & 1], halves, row);
+                    tags[slot] = my;
+                }
             }
+            let ring: &[A::P] = ring;
+            let source: [&[A::P]; 5] = core::array::from_fn(|k| {
+                let slot = reflect(y as isize + k as isize - 2, h) % MOSAIC_ROWS;
+                &ring[slot * row_len..(slot + 1) * row_len]
+            });
+            demosaic_row(method, source, halves, pattern, y, planes);
+            if let Some(knee) = knee {
+                highlights_row::<A>(knee, source, halves, planes);
+            }
+            Ok(())
+        },
+    )
+}
+
+/// Writes output rows `rows`, each from demosaiced planes that `produce(y, planes)` fills for
+/// frame row `y`: through the colour matrix and the encoding, or with sharpening on, each
+/// row encoded into `sharpen_ring` (rows produced in order, each once) and the output row
+/// sharpened from the encoded rows above, at and below it (reflected at the frame's edges).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn emit_rows<A: Planar, O: OutputSample>(
+    path: &A,
+    h: usize,
+    halves: Halves,
+    rows: Range<usize>,
+    planes: &mut [A::P],
+    sharpen_ring: &mut [A::P],
+    out: &mut RgbViewMut<'_, O>,
+    encode: impl Fn(&A, &[A::P], Halves, &mut [O]),
+    mut produce: impl FnMut(usize, &mut [A::P]) -> Result<(), IspError>,
+) -> Result<(), IspError> {
+    let w = halves.even + halves.odd;
+    let matrix = path.matrix();
+    let Some(amount) = path.sharpening() else {
+        for y in rows.clone() {
+            produce(y, planes)?;
+            matrix_row::<A>(matrix.as_ref(), planes, w);
+            encode(path, planes, halves, out.row_mut(y - rows.start));
         }
-        let ring: &[A::P] = ring;
-        let source: [&[A::P]; 5] = core::array::from_fn(|k| {
-            let slot = reflect(y as isize + k as isize - 2, h) % MOSAIC_ROWS;
-            &ring[slot * row_len..(slot + 1) * row_len]
+        return Ok(());
+    };
+    let slot_len = sharpen_slot_len(w);
+    let mut tags = [usize::MAX; SHARPEN_ROWS];
+    for y in rows.clone() {
+        let taps = [-1isize, 0, 1].map(|dy| reflect(y as isize + dy, h));
+        let (lo, hi) = (taps[0].min(y), taps[2].max(y));
+        for v in lo..=hi {
+            let slot = v % SHARPEN_ROWS;
+            if tags[slot] == v {
+                continue;
+            }
+            produce(v, planes)?;
+            matrix_row::<A>(matrix.as_ref(), planes, w);
+            let encoded = &mut sharpen_ring[slot * slot_len..(slot + 1) * slot_len];
+            encode_for_sharpening(path, planes, encoded, w);
+            tags[slot] = v;
+        }
+        let ring: &[A::P] = sharpen_ring;
+        let encoded = taps.map(|v| {
+            let slot = v % SHARPEN_ROWS;
+            &ring[slot * slot_len..(slot + 1) * slot_len]
         });
-        demosaic_row(path.method(), source, halves, pattern, y, planes);
-        if let Some(knee) = knee {
-            highlights_row::<A>(knee, source, halves, planes);
-        }
-        finish_row(
-            path,
-            matrix.as_ref(),
-            planes,
-            halves,
-            out.row_mut(y - rows.start),
-            &encode,
-        );
+        sharpen_row::<A>(amount, encoded, halves, planes);
+        interleave_codes::<A, O>(planes, halves, out.row_mut(y - rows.start));
     }
     Ok(())
 }
 
-/// The colour matrix and the encoding of one row of demosaiced planes.
+/// The colour matrix on one row of demosaiced planes, each value then clamped as the 8-bit
+/// encoding takes it (or the clamp alone, where there is no matrix).
 #[inline(always)]
-fn finish_row<A: Planar, O: OutputSample>(
-    path: &A,
-    matrix: Option<&A::Matrix>,
-    planes: &mut [A::P],
-    halves: Halves,
-    out: &mut [O],
-    encode: impl Fn(&A, &[A::P], Halves, &mut [O]),
-) {
-    let w = halves.even + halves.odd;
+fn matrix_row<A: Planar>(matrix: Option<&A::Matrix>, planes: &mut [A::P], w: usize) {
     if let Some(m) = matrix {
         let (r, rest) = planes.split_at_mut(w);
         let (g, b) = rest.split_at_mut(w);
@@ -435,7 +623,155 @@ fn finish_row<A: Planar, O: OutputSample>(
             *v = A::clamp_for_code8(*v);
         }
     }
-    encode(path, planes, halves, out);
+}
+
+/// A row of linear planes (after [`matrix_row`]) into one row of the sharpening ring: the
+/// encoded planes, then the luma of each pixel.
+#[inline(always)]
+fn encode_for_sharpening<A: Planar>(path: &A, planes: &[A::P], slot: &mut [A::P], w: usize) {
+    let (encoded, luma) = slot.split_at_mut(3 * w);
+    for (e, v) in encoded.iter_mut().zip(&planes[..3 * w]) {
+        *e = path.encode_for_sharpening(*v);
+    }
+    let (r, rest) = encoded.split_at(w);
+    let (g, b) = rest.split_at(w);
+    for (((y, r), g), b) in luma[..w].iter_mut().zip(r).zip(g).zip(b) {
+        *y = A::luma([*r, *g, *b]);
+    }
+}
+
+/// The sharpening stage on the middle row of three ring rows (`rows`: above, at, below),
+/// into `codes` (three planes of 8-bit codes, halves as the planes). A site's neighbours
+/// left and right are in the other half: for the even column `2i` the odd sites `i - 1` and
+/// `i`, for the odd column `2i + 1` the even sites `i` and `i + 1`. The sites whose
+/// neighbour lies past the frame's edge (reflect-101) are done one by one, the rest in one
+/// loop per half over equal-length slices, which vectorises.
+#[inline(always)]
+fn sharpen_row<A: Planar>(
+    amount: A::Sharpen,
+    rows: [&[A::P]; 3],
+    halves: Halves,
+    codes: &mut [A::P],
+) {
+    let (ne, no) = (halves.even, halves.odd);
+    let w = ne + no;
+    let luma = rows.map(|row| row[3 * w..4 * w].split_at(ne));
+    let centre = rows[1];
+    // Interior even sites 1..even_end, odd sites 0..odd_end.
+    let even_end = if ne > no { ne - 1 } else { ne };
+    let odd_end = if ne > no { no } else { no - 1 };
+    let (r, rest) = codes[..3 * w].split_at_mut(w);
+    let (g, b) = rest.split_at_mut(w);
+    let (r_even, r_odd) = r.split_at_mut(ne);
+    let (g_even, g_odd) = g.split_at_mut(ne);
+    let (b_even, b_odd) = b.split_at_mut(ne);
+    if even_end > 1 {
+        let n = even_end - 1;
+        // Site i + 1 of the even half: odd i to the left, odd i + 1 to the right.
+        let taps = luma.map(|(even, odd)| [&odd[..n], &even[1..1 + n], &odd[1..1 + n]]);
+        let channels = [0, 1, 2].map(|c| &centre[c * w + 1..c * w + 1 + n]);
+        sharpen_span::<A>(
+            amount,
+            taps,
+            channels,
+            [
+                &mut r_even[1..1 + n],
+                &mut g_even[1..1 + n],
+                &mut b_even[1..1 + n],
+            ],
+        );
+    }
+    if odd_end > 0 {
+        let n = odd_end;
+        // Site i of the odd half: even i to the left, even i + 1 to the right.
+        let taps = luma.map(|(even, odd)| [&even[..n], &odd[..n], &even[1..1 + n]]);
+        let channels = [0, 1, 2].map(|c| &centre[c * w + ne..c * w + ne + n]);
+        sharpen_span::<A>(
+            amount,
+            taps,
+            channels,
+            [&mut r_odd[..n], &mut g_odd[..n], &mut b_odd[..n]],
+        );
+    }
+    // The edge sites: column 0, and the last column or two.
+    let index = |x: usize| {
+        if x.is_multiple_of(2) {
+            x / 2
+        } else {
+            ne + x / 2
+        }
+    };
+    let mut edge = |x: usize| {
+        let columns = [-1isize, 0, 1].map(|dx| index(reflect(x as isize + dx, w)));
+        let luma = rows.map(|row| columns.map(|i| row[3 * w + i]));
+        let detail = A::detail(amount, luma);
+        let i = index(x);
+        for c in 0..3 {
+            codes[c * w + i] = A::sharpened_code8(centre[c * w + i], detail);
+        }
+    };
+    edge(0);
+    for x in [2 * even_end, 2 * odd_end + 1] {
+        if x > 0 && x < w {
+            edge(x);
+        }
+    }
+}
+
+/// [`sharpen_row`]'s loop over `n` sites of one half: `luma[row][column]` the luma of the
+/// rows above, at and below, at the columns left, at and right of each site, `channels` the
+/// sites' encoded channels, `codes` their 8-bit codes.
+#[inline(always)]
+fn sharpen_span<A: Planar>(
+    amount: A::Sharpen,
+    luma: [[&[A::P]; 3]; 3],
+    channels: [&[A::P]; 3],
+    codes: [&mut [A::P]; 3],
+) {
+    let [r, g, b] = codes;
+    let n = r.len();
+    let (g, b) = (&mut g[..n], &mut b[..n]);
+    let [cr, cg, cb] = channels.map(|c| &c[..n]);
+    let [[ul, uc, ur], [ml, mc, mr], [dl, dc, dr]] = luma.map(|row| row.map(|s| &s[..n]));
+    for i in 0..n {
+        let detail = A::detail(
+            amount,
+            [
+                [ul[i], uc[i], ur[i]],
+                [ml[i], mc[i], mr[i]],
+                [dl[i], dc[i], dr[i]],
+            ],
+        );
+        r[i] = A::sharpened_code8(cr[i], detail);
+        g[i] = A::sharpened_code8(cg[i], detail);
+        b[i] = A::sharpened_code8(cb[i], detail);
+    }
+}
+
+/// Three planes of 8-bit codes (from [`sharpen_row`]) interleaved into an output row.
+#[inline(always)]
+fn interleave_codes<A: Planar, O: OutputSample>(codes: &[A::P], halves: Halves, out: &mut [O]) {
+    let w = halves.even + halves.odd;
+    let code = |v: A::P| O::from_code(A::code_of(v));
+    let plane = |c: usize| codes[c * w..(c + 1) * w].split_at(halves.even);
+    let [(r_even, r_odd), (g_even, g_odd), (b_even, b_odd)] = [plane(0), plane(1), plane(2)];
+    let evens = r_even.iter().zip(g_even).zip(b_even);
+    let odds = r_odd.iter().zip(g_odd).zip(b_odd);
+    let pairs = out[..6 * halves.odd].chunks_exact_mut(6);
+    for (px, (((re, ge), be), ((ro, go), bo))) in pairs.zip(evens.zip(odds)) {
+        px[0] = code(*re);
+        px[1] = code(*ge);
+        px[2] = code(*be);
+        px[3] = code(*ro);
+        px[4] = code(*go);
+        px[5] = code(*bo);
+    }
+    if halves.even > halves.odd {
+        let i = halves.even - 1;
+        out[3 * (w - 1)] = code(r_even[i]);
+        out[3 * (w - 1) + 1] = code(g_even[i]);
+        out[3 * (w - 1) + 2] = code(b_even[i]);
+    }
 }
 
 /// [`run_directional`] out of line, compiled for the baseline target.
@@ -551,7 +887,9 @@ fn run_directional<A: Planar, O: OutputSample, const L: usize>(
         allowed: "a size that fits in memory",
     };
     let part = super::directional_len::<A::Directional>(Method::Directional, w).ok_or(too_wide)?;
-    let needed = part.checked_add(halves.len() + 3 * w).ok_or(too_wide)?;
+    let needed = part
+        .checked_add(halves.len() + 3 * w + sharpen_part(w, path.sharpening().is_some()))
+        .ok_or(too_wide)?;
     if scratch.len() < needed {
         return Err(IspError::BufferTooSmall {
             needed,
@@ -560,7 +898,7 @@ fn run_directional<A: Planar, O: OutputSample, const L: usize>(
     }
     let (part, rest) = scratch.split_at_mut(part);
     let (prepared, rest) = rest.split_at_mut(halves.len());
-    let planes = &mut rest[..3 * w];
+    let (planes, sharpen_ring) = rest.split_at_mut(3 * w);
     let Some(mut stream) =
         Stream::<A::Directional>::new(w, h, pattern, A::directional_planes(part))?
     else {
@@ -572,44 +910,48 @@ fn run_directional<A: Planar, O: OutputSample, const L: usize>(
         });
     };
     let steps = path.steps(raw);
-    let matrix = path.matrix();
     let knee = path.knee();
-    for y in rows.clone() {
-        if stream.next_output() != Some(y) {
-            stream.restart(y);
-        }
-        loop {
-            if stream.finished() {
-                // A restart at a frame row always reaches it; this is not reached.
-                return Err(IspError::InvalidParameter {
-                    name: "rows",
-                    allowed: "rows within the frame",
-                });
+    emit_rows(
+        path,
+        h,
+        halves,
+        rows,
+        planes,
+        sharpen_ring,
+        out,
+        encode,
+        // Inlined, so that it is compiled for the entry's target features (a closure out of
+        // line is compiled for the baseline target).
+        #[inline(always)]
+        |y: usize, planes: &mut [A::P]| {
+            if stream.next_output() != Some(y) {
+                stream.restart(y);
             }
-            let read = stream.next_read();
-            if let Some(my) = read {
-                prepare_row::<A>(path.dpc(), raw, my, steps[my & 1], halves, prepared);
+            loop {
+                if stream.finished() {
+                    // A restart at a frame row always reaches it; this is not reached.
+                    return Err(IspError::InvalidParameter {
+                        name: "rows",
+                        allowed: "rows within the frame",
+                    });
+                }
+                let read = stream.next_read();
+                if let Some(my) = read {
+                    prepare_row::<A>(path.dpc(), raw, my, steps[my & 1], halves, prepared);
+                }
+                let source = read.map(|_| halves.unpadded(&*prepared));
+                if stream.next_output() == Some(y) {
+                    stream.step::<L>(source, Some(OutputRow::Planes(&mut *planes)));
+                    break;
+                }
+                stream.step::<L>(source, None);
             }
-            let source = read.map(|_| halves.unpadded(&*prepared));
-            if stream.next_output() == Some(y) {
-                stream.step::<L>(source, Some(OutputRow::Planes(&mut *planes)));
-                break;
+            if let Some(knee) = knee {
+                directional_highlights::<A>(knee, &stream, y, halves, planes);
             }
-            stream.step::<L>(source, None);
-        }
-        if let Some(knee) = knee {
-            directional_highlights::<A>(knee, &stream, y, halves, planes);
-        }
-        finish_row(
-            path,
-            matrix.as_ref(),
-            planes,
-            halves,
-            out.row_mut(y - rows.start),
-            &encode,
-        );
-    }
-    Ok(())
+            Ok(())
+        },
+    )
 }
 
 /// The highlight stage after the directional method: each pixel with the largest sample of
@@ -762,7 +1104,7 @@ pub(super) fn encode_row<A: Planar, O: OutputSample>(
     out: &mut [O],
 ) {
     let w = halves.even + halves.odd;
-    // The planes come from finish_row, which clamped them.
+    // The planes come from matrix_row, which clamped them.
     let encode = |v: A::P| O::from_code(path.code8_clamped(v));
     let plane = |c: usize| planes[c * w..(c + 1) * w].split_at(halves.even);
     let [(r_even, r_odd), (g_even, g_odd), (b_even, b_odd)] = [plane(0), plane(1), plane(2)];
