@@ -751,26 +751,33 @@ fn sharpen_span<A: Planar>(
 /// Three planes of 8-bit codes (from [`sharpen_row`]) interleaved into an output row.
 #[inline(always)]
 fn interleave_codes<A: Planar, O: OutputSample>(codes: &[A::P], halves: Halves, out: &mut [O]) {
+    interleave(codes, halves, out, |v: A::P| O::from_code(A::code_of(v)));
+}
+
+/// Three planes (each even half, then odd half) into an interleaved RGB row, each sample
+/// through `sample`.
+#[inline(always)]
+fn interleave<P: Copy, O>(planes: &[P], halves: Halves, out: &mut [O], sample: impl Fn(P) -> O) {
     let w = halves.even + halves.odd;
-    let code = |v: A::P| O::from_code(A::code_of(v));
-    let plane = |c: usize| codes[c * w..(c + 1) * w].split_at(halves.even);
+    let plane = |c: usize| planes[c * w..(c + 1) * w].split_at(halves.even);
     let [(r_even, r_odd), (g_even, g_odd), (b_even, b_odd)] = [plane(0), plane(1), plane(2)];
+    // Zipped, not indexed by `even + i`: two bounds checks per pair of pixels fewer.
     let evens = r_even.iter().zip(g_even).zip(b_even);
     let odds = r_odd.iter().zip(g_odd).zip(b_odd);
     let pairs = out[..6 * halves.odd].chunks_exact_mut(6);
     for (px, (((re, ge), be), ((ro, go), bo))) in pairs.zip(evens.zip(odds)) {
-        px[0] = code(*re);
-        px[1] = code(*ge);
-        px[2] = code(*be);
-        px[3] = code(*ro);
-        px[4] = code(*go);
-        px[5] = code(*bo);
+        px[0] = sample(*re);
+        px[1] = sample(*ge);
+        px[2] = sample(*be);
+        px[3] = sample(*ro);
+        px[4] = sample(*go);
+        px[5] = sample(*bo);
     }
     if halves.even > halves.odd {
         let i = halves.even - 1;
-        out[3 * (w - 1)] = code(r_even[i]);
-        out[3 * (w - 1) + 1] = code(g_even[i]);
-        out[3 * (w - 1) + 2] = code(b_even[i]);
+        out[3 * (w - 1)] = sample(r_even[i]);
+        out[3 * (w - 1) + 1] = sample(g_even[i]);
+        out[3 * (w - 1) + 2] = sample(b_even[i]);
     }
 }
 
@@ -1103,27 +1110,8 @@ pub(super) fn encode_row<A: Planar, O: OutputSample>(
     halves: Halves,
     out: &mut [O],
 ) {
-    let w = halves.even + halves.odd;
     // The planes come from matrix_row, which clamped them.
-    let encode = |v: A::P| O::from_code(path.code8_clamped(v));
-    let plane = |c: usize| planes[c * w..(c + 1) * w].split_at(halves.even);
-    let [(r_even, r_odd), (g_even, g_odd), (b_even, b_odd)] = [plane(0), plane(1), plane(2)];
-    // Zipped, not indexed by `even + i`: two bounds checks per pair of pixels fewer.
-    let evens = r_even.iter().zip(g_even).zip(b_even);
-    let odds = r_odd.iter().zip(g_odd).zip(b_odd);
-    let pairs = out[..6 * halves.odd].chunks_exact_mut(6);
-    for (px, (((re, ge), be), ((ro, go), bo))) in pairs.zip(evens.zip(odds)) {
-        px[0] = encode(*re);
-        px[1] = encode(*ge);
-        px[2] = encode(*be);
-        px[3] = encode(*ro);
-        px[4] = encode(*go);
-        px[5] = encode(*bo);
-    }
-    if halves.even > halves.odd {
-        let i = halves.even - 1;
-        out[3 * (w - 1)] = encode(r_even[i]);
-        out[3 * (w - 1) + 1] = encode(g_even[i]);
-        out[3 * (w - 1) + 2] = encode(b_even[i]);
-    }
+    interleave(planes, halves, out, |v: A::P| {
+        O::from_code(path.code8_clamped(v))
+    });
 }
