@@ -759,8 +759,8 @@ fn interleave_codes<A: Planar, O: OutputSample>(codes: &[A::P], halves: Halves, 
 #[inline(always)]
 fn interleave<P: Copy, O>(planes: &[P], halves: Halves, out: &mut [O], sample: impl Fn(P) -> O) {
     let w = halves.even + halves.odd;
-    let plane = |c: usize| planes[c * w..(c + 1) * w].split_at(halves.even);
-    let [(r_even, r_odd), (g_even, g_odd), (b_even, b_odd)] = [plane(0), plane(1), plane(2)];
+    let [(r_even, r_odd), (g_even, g_odd), (b_even, b_odd)] =
+        colour_planes(planes, halves).map(|plane| plane.split_at(halves.even));
     // Zipped, not indexed by `even + i`: two bounds checks per pair of pixels fewer.
     let evens = r_even.iter().zip(g_even).zip(b_even);
     let odds = r_odd.iter().zip(g_odd).zip(b_odd);
@@ -830,6 +830,13 @@ pub(super) fn run_directional_avx512<A: Planar, O: OutputSample>(
     run_directional::<A, O, LANES_AVX512>(path, raw, rows, scratch, out, encode)
 }
 
+/// The red, green and blue planes of a row of planes, each `halves.even + halves.odd` long.
+#[inline(always)]
+fn colour_planes<P>(planes: &[P], halves: Halves) -> [&[P]; 3] {
+    let w = halves.even + halves.odd;
+    [0, 1, 2].map(|c| &planes[c * w..(c + 1) * w])
+}
+
 /// [`encode_row`] with AVX2 and FMA where the path's encoding is the float path's 8-bit
 /// thresholds: the same codes, the curve evaluated eight samples at a time instead of two
 /// table loads per sample ([`srgb::avx2::encode_halves8`]).
@@ -842,11 +849,13 @@ pub(super) fn encode_row_avx2<A: Planar, O: OutputSample>(
     out: &mut [O],
 ) {
     match (path.thresholds8_planes(planes), O::as_bytes_mut(out)) {
-        (Some((codes, planes)), Some(bytes)) => {
-            let w = halves.even + halves.odd;
-            let [r, g, b] = [0, 1, 2].map(|c| &planes[c * w..(c + 1) * w]);
-            srgb::avx2::encode_halves8(codes, [r, g, b], halves.even, halves.odd, bytes)
-        }
+        (Some((codes, planes)), Some(bytes)) => srgb::avx2::encode_halves8(
+            codes,
+            colour_planes(planes, halves),
+            halves.even,
+            halves.odd,
+            bytes,
+        ),
         _ => encode_row(path, planes, halves, out),
     }
 }
@@ -863,11 +872,13 @@ pub(super) fn encode_row_avx512<A: Planar, O: OutputSample>(
     out: &mut [O],
 ) {
     match (path.lookup8_planes(planes), O::as_bytes_mut(out)) {
-        (Some((lut, planes)), Some(bytes)) => {
-            let w = halves.even + halves.odd;
-            let [r, g, b] = [0, 1, 2].map(|c| &planes[c * w..(c + 1) * w]);
-            srgb::avx512::encode_halves8(lut, [r, g, b], halves.even, halves.odd, bytes)
-        }
+        (Some((lut, planes)), Some(bytes)) => srgb::avx512::encode_halves8(
+            lut,
+            colour_planes(planes, halves),
+            halves.even,
+            halves.odd,
+            bytes,
+        ),
         _ => encode_row_avx2(path, planes, halves, out),
     }
 }
