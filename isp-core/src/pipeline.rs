@@ -69,8 +69,8 @@
 //! keeps its own ring buffers of its working values (`f32` in the float path, `i32` in the
 //! fixed path, carved from the `u16` scratch two elements each) and the mosaic ring holds
 //! just the row being prepared: [`FloatPipeline::scratch_len`] and
-//! [`FixedPipeline::scratch_len`] give each path's need. At 4096 pixels wide that is 1.54 MiB
-//! for the fixed path and 1.65 MiB for the float path (1.50 MB of it the directional rings,
+//! [`FixedPipeline::scratch_len`] give each path's need. At 4096 pixels wide that is 1.41 MiB
+//! for the fixed path and 1.52 MiB for the float path (1.37 MB of it the directional rings,
 //! [`directional::scratch_len`]); a band restarts the method 12 rows above its first row.
 //!
 //! # Speed: the planar schedule and the AVX2 and AVX-512 entries

@@ -38,8 +38,8 @@
 //! bilinear's line rule (see the parent module).
 //!
 //! **Streaming.** Each stage runs one row at a time, a fixed number of rows behind the stage it
-//! reads, over ring buffers of rows: [`scratch_len`]`(width)` samples in all (91 rows of the
-//! padded width), about 750 kB for a 2048-pixel-wide frame and independent of the height.
+//! reads, over ring buffers of rows: [`scratch_len`]`(width)` samples in all (83 rows of the
+//! padded width), about 690 kB for a 2048-pixel-wide frame and independent of the height.
 //! Rows are stored split into their even and odd columns, so the pixels of one CFA colour in a
 //! row are consecutive and each stage computes only the sites that need it (green only at red
 //! and blue pixels, for instance) in a straight loop over slices, which vectorises. On x86-64,
@@ -82,12 +82,10 @@ const SMOOTH_PERCENT: [i32; 4] = [56, 35, 8, 1];
 /// Rows held by each ring buffer (powers of two), in the order [`Planes::split`] takes them:
 /// each is at least the span from the row a stage writes to the oldest row a later stage still
 /// reads (see [`directional_body`]'s schedule).
-const RING_ROWS: [usize; 10] = [
+const RING_ROWS: [usize; 8] = [
     16, // mosaic: written at lag 0, read down to lag 14 (output, vertical neighbours)
     8,  // diff_h
     8,  // diff_v: lag 2, read down to lag 9 (green)
-    4,  // grad_h: lag 3, read down to lag 5 (sum3)
-    4,  // grad_v
     8,  // sum3_v: lag 4, read down to lag 8 (green)
     8,  // sum3_h
     16, // class: lag 3, read down to lag 12 (output)
@@ -118,7 +116,7 @@ const fn row_len(width: usize) -> Option<usize> {
 ///
 /// ```
 /// use isp_core::demosaic::directional::{scratch_len, HALO};
-/// assert_eq!(scratch_len(100), Some(91 * (100 + 2 * HALO)));
+/// assert_eq!(scratch_len(100), Some(83 * (100 + 2 * HALO)));
 /// ```
 pub const fn scratch_len(width: usize) -> Option<usize> {
     let Some(row) = row_len(width) else {
@@ -234,8 +232,7 @@ fn step<A: Arithmetic, const L: usize>(
     if let Some(r) = due.diff {
         A::diff(frame, r, p);
     }
-    if let Some(r) = due.grad_class {
-        frame.grad_row(r, p);
+    if let Some(r) = due.class {
         A::class::<L>(frame, r, p);
     }
     if let Some(r) = due.sum3 {
@@ -520,7 +517,7 @@ fn schedule_len(h: usize) -> usize {
 struct Due {
     mosaic: Option<usize>,
     diff: Option<usize>,
-    grad_class: Option<usize>,
+    class: Option<usize>,
     sum3: Option<usize>,
     green: Option<usize>,
     chroma: Option<usize>,
@@ -540,7 +537,7 @@ impl Due {
         Due {
             mosaic: (t < rows).then_some(t),
             diff: valid(2, 2),
-            grad_class: valid(3, 3),
+            class: valid(3, 3),
             sum3: valid(4, 4),
             green: valid(6, 6),
             chroma: valid(8, 8),
@@ -585,11 +582,9 @@ pub(crate) struct Planes<'a, E> {
     mosaic: Ring<'a, E>,
     diff_h: Ring<'a, E>,
     diff_v: Ring<'a, E>,
-    grad_h: Ring<'a, E>,
-    grad_v: Ring<'a, E>,
-    /// `grad_v` summed over 3 columns.
+    /// The vertical gradients of `diff_v` summed over 3 columns.
     sum3_v: Ring<'a, E>,
-    /// `grad_h` summed over 3 rows.
+    /// The horizontal gradients of `diff_h` summed over 3 rows.
     sum3_h: Ring<'a, E>,
     /// At green pixels the horizontal/vertical classifier on the mosaic (1 = use the horizontal
     /// estimate); at red and blue pixels the diagonal one (1 = use the NE-SW estimate).
@@ -613,15 +608,13 @@ impl<'a, E> Planes<'a, E> {
                 stride,
             }
         };
-        let [mosaic, diff_h, diff_v, grad_h, grad_v, sum3_v, sum3_h, class, green, opposite] =
+        let [mosaic, diff_h, diff_v, sum3_v, sum3_h, class, green, opposite] =
             RING_ROWS.map(&mut take);
         let [r, g, b] = [take(1), take(1), take(1)];
         Planes {
             mosaic,
             diff_h,
             diff_v,
-            grad_h,
-            grad_v,
             sum3_v,
             sum3_h,
             class,
@@ -1322,42 +1315,32 @@ impl Frame {
         }
     }
 
-    /// Gradients of the colour differences along their own direction (both methods).
-    #[inline(always)]
-    fn grad_row<E: Level>(&self, r: usize, p: &mut Planes<'_, E>) {
-        let dh = p.diff_h.row(r);
-        let [up, _, down]: [&[E]; 3] = p.diff_v.rows(r);
-        for parity in 0..2 {
-            let span = Span::new(self, parity, 3);
-            let [left, _, right]: [&[E]; 3] = span.taps(dh);
-            let gh = span.out(p.grad_h.row_mut(r));
-            for i in 0..gh.len() {
-                gh[i] = left[i].distance(right[i]);
-            }
-            let [up, down] = span.column([up, down]);
-            let gv = span.out(p.grad_v.row_mut(r));
-            for i in 0..gv.len() {
-                gv[i] = up[i].distance(down[i]);
-            }
-        }
-    }
-
-    /// The gradients summed over three samples across their direction (both methods).
+    /// The gradients of the colour differences along their own direction (`|d(-1) - d(+1)|`),
+    /// summed over three samples across it (both methods). Each gradient is formed where it
+    /// is summed, three times over, rather than stored in planes of its own and read back:
+    /// the same values in the same order, with two ring buffers and a pass fewer.
     #[inline(always)]
     fn sum3_row<E: Level>(&self, r: usize, p: &mut Planes<'_, E>) {
-        let gv = p.grad_v.row(r);
-        let gh: [&[E]; 3] = p.grad_h.rows(r);
+        let [up, _, down]: [&[E]; 3] = p.diff_v.rows(r);
+        let dh: [&[E]; 3] = p.diff_h.rows(r);
         for parity in 0..2 {
             let span = Span::new(self, parity, 4);
-            let v: [&[E]; 3] = span.taps(gv);
+            let [up, down]: [[&[E]; 3]; 2] = [span.taps(up), span.taps(down)];
             let s3v = span.out(p.sum3_v.row_mut(r));
             for i in 0..s3v.len() {
-                s3v[i] = v[0][i] + v[1][i] + v[2][i];
+                s3v[i] = up[0][i].distance(down[0][i])
+                    + up[1][i].distance(down[1][i])
+                    + up[2][i].distance(down[2][i]);
             }
-            let h = span.column(gh);
+            let [left, right]: [[&[E]; 3]; 2] = [
+                dh.map(|row| span.tap(row, -1)),
+                dh.map(|row| span.tap(row, 1)),
+            ];
             let s3h = span.out(p.sum3_h.row_mut(r));
             for i in 0..s3h.len() {
-                s3h[i] = h[0][i] + h[1][i] + h[2][i];
+                s3h[i] = left[0][i].distance(right[0][i])
+                    + left[1][i].distance(right[1][i])
+                    + left[2][i].distance(right[2][i]);
             }
         }
     }
