@@ -934,6 +934,15 @@ fn pair_estimate(x: [f32; 4], g: [f32; 5]) -> f32 {
     (after * (x[1] - g[1]) + before * (x[2] - g[3])) / (before + after)
 }
 
+/// `|a0 - b0| + |a1 - b1| + |a2 - b2|` at each site of `out`: three gradients summed, in
+/// that order (both methods).
+#[inline(always)]
+fn sum3_distances<E: Level>(a: [&[E]; 3], b: [&[E]; 3], out: &mut [E]) {
+    for (i, sum) in out.iter_mut().enumerate() {
+        *sum = a[0][i].distance(b[0][i]) + a[1][i].distance(b[1][i]) + a[2][i].distance(b[2][i]);
+    }
+}
+
 /// A working sample of either method: what the stages both methods share need of it.
 pub(crate) trait Level:
     Copy + PartialOrd + core::ops::Add<Output = Self> + core::ops::Sub<Output = Self>
@@ -1326,22 +1335,12 @@ impl Frame {
         for parity in 0..2 {
             let span = Span::new(self, parity, 4);
             let [up, down]: [[&[E]; 3]; 2] = [span.taps(up), span.taps(down)];
-            let s3v = span.out(p.sum3_v.row_mut(r));
-            for i in 0..s3v.len() {
-                s3v[i] = up[0][i].distance(down[0][i])
-                    + up[1][i].distance(down[1][i])
-                    + up[2][i].distance(down[2][i]);
-            }
+            sum3_distances(up, down, span.out(p.sum3_v.row_mut(r)));
             let [left, right]: [[&[E]; 3]; 2] = [
                 dh.map(|row| span.tap(row, -1)),
                 dh.map(|row| span.tap(row, 1)),
             ];
-            let s3h = span.out(p.sum3_h.row_mut(r));
-            for i in 0..s3h.len() {
-                s3h[i] = left[0][i].distance(right[0][i])
-                    + left[1][i].distance(right[1][i])
-                    + left[2][i].distance(right[2][i]);
-            }
+            sum3_distances(left, right, span.out(p.sum3_h.row_mut(r)));
         }
     }
 
