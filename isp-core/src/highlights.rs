@@ -150,13 +150,7 @@ mod tests {
     /// and knees (including values at and next to the knee), and on random values.
     #[test]
     fn lane_forms_equal_the_stages() {
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut next = crate::math::xorshift(0x9e37_79b9_7f4a_7c15);
         for knee in [0.0f32, 0.5, 0.8, 0.9, 0.97, 0.999, 0.99999] {
             let q = KneeQ16::new(knee);
             let at_knee = (knee * 65535.0) as u16;

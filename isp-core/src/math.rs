@@ -50,3 +50,16 @@ pub(crate) fn log10(x: f64) -> f64 {
 pub(crate) fn acos(x: f64) -> f64 {
     libm::acos(x)
 }
+
+/// A xorshift64 generator (Marsaglia 2003, shifts 13, 7, 17) from a non-zero `seed`: the
+/// tests' reproducible operands.
+#[cfg(test)]
+pub(crate) fn xorshift(seed: u64) -> impl FnMut() -> u64 {
+    let mut state = seed;
+    move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state
+    }
+}

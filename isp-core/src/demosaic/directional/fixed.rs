@@ -763,15 +763,9 @@ mod tests {
     use crate::frame::{MosaicView, RgbViewMut};
     use crate::CfaPattern;
 
-    /// A xorshift generator for the tests' operands.
+    /// The tests' operands.
     fn generator() -> impl FnMut() -> u64 {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        }
+        crate::math::xorshift(0x2545_f491_4f6c_dd1d)
     }
 
     /// Both [`Wide`]s side by side, every division checked to agree.
