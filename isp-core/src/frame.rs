@@ -36,6 +36,24 @@ pub trait IntSample: Sample {
     fn from_u32(x: u32) -> Self;
 }
 
+/// `y` rounded down and clamped to `[0, max]` (`max` an integer below 2^22), NaN to 0: what
+/// `y as u16` gives for `max = 65535` (`as u8` for 255), in operations that vectorise.
+/// Rust's saturating `as` from `f32` does not: in the float directional method's output loop
+/// LLVM left it as a scalar conversion, two clamps and an insert per sample, and the AVX2
+/// build ran at 108-109 Mpix/s on Kodak and McMaster at 16 bits against 138-140 with this.
+#[inline(always)]
+fn floor_saturated(y: f32, max: f32) -> u32 {
+    // Adding 1.5 x 2^23 rounds to the nearest integer and leaves it in the low bits of the
+    // sum; where that rounded up, the floor is one less.
+    const ROUNDER: f32 = 12_582_912.0;
+    let y = if y > 0.0 { y } else { 0.0 };
+    let y = if y < max { y } else { max };
+    let sum = y + ROUNDER;
+    let nearest = sum.to_bits().wrapping_sub(ROUNDER.to_bits());
+    let rounded_up = sum - ROUNDER > y;
+    nearest - u32::from(rounded_up)
+}
+
 macro_rules! int_sample {
     ($t:ty) => {
         impl Sample for $t {
@@ -60,8 +78,7 @@ macro_rules! int_sample {
             }
             #[inline]
             fn from_unit(v: f32) -> Self {
-                // `as` saturates and maps NaN to 0.
-                (v * <$t>::MAX as f32 + 0.5) as $t
+                floor_saturated(v * <$t>::MAX as f32 + 0.5, <$t>::MAX as f32) as $t
             }
         }
 
@@ -518,5 +535,55 @@ impl<'a, T: Copy> RgbView<'a, T> {
             let i = y * self.stride + 3 * x;
             [self.data[i], self.data[i + 1], self.data[i + 2]]
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Sample;
+
+    /// `from_unit` is Rust's saturating `(v * MAX + 0.5) as T`: next to every code's
+    /// boundary (a few `f32` steps either side), on a stride through every `f32` in
+    /// `[-1, 2]`, and at the special values.
+    #[test]
+    fn from_unit_is_the_saturating_cast() {
+        fn check(v: f32) {
+            assert_eq!(u8::from_unit(v), (v * 255.0 + 0.5) as u8, "{v:e}");
+            assert_eq!(u16::from_unit(v), (v * 65535.0 + 0.5) as u16, "{v:e}");
+        }
+        let specials = [
+            f32::NAN,
+            -f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::MAX,
+            f32::MIN,
+            f32::MIN_POSITIVE,
+            0.0,
+            -0.0,
+            1.0,
+        ];
+        specials.into_iter().for_each(check);
+        for max in [255.0f32, 65535.0] {
+            for k in 0..=max as u32 + 1 {
+                let boundary = (k as f32 - 0.5) / max;
+                let mut v = boundary;
+                for _ in 0..4 {
+                    v = v.next_down();
+                }
+                for _ in 0..9 {
+                    check(v);
+                    v = v.next_up();
+                }
+            }
+        }
+        let (low, high) = ((-1.0f32).to_bits(), 2.0f32.to_bits());
+        // Negative values' bits run from -0 up to -1, positive ones from 0 up to 2.
+        for bits in (0x8000_0000..=low)
+            .step_by(101)
+            .chain((0..=high).step_by(97))
+        {
+            check(f32::from_bits(bits));
+        }
     }
 }

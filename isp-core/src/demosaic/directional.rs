@@ -43,8 +43,9 @@
 //! Rows are stored split into their even and odd columns, so the pixels of one CFA colour in a
 //! row are consecutive and each stage computes only the sites that need it (green only at red
 //! and blue pixels, for instance) in a straight loop over slices, which vectorises. On x86-64,
-//! [`directional_avx2`] is the same code compiled for AVX2 (bit-identical output): 101-106 Mpix/s
-//! single-thread at 16 bits on the project's Zen 3 EPYC (`camsim bench`, 2026-11-24; MHC 513-576).
+//! [`directional_avx2`] is the same code compiled for AVX2 (bit-identical output): 138-140 Mpix/s
+//! single-thread at 16 bits on Kodak and McMaster on the project's Zen 3 EPYC (`camsim bench
+//! demosaic`, 2026-11-24; MHC 623-668 in the same runs).
 //!
 //! The schedule is a `Stream`: one step reads one padded row and writes one frame row once
 //! the stages have caught up. The whole-frame functions run it from the top; the pipeline
