@@ -51,6 +51,15 @@ pub(crate) fn acos(x: f64) -> f64 {
     libm::acos(x)
 }
 
+/// `x` rounded to the nearest integer (ties to even), for `|x| < 2^22`, by adding 1.5 x 2^23,
+/// which leaves the integer in the low bits of the sum: no float-to-integer conversion, whose
+/// saturating `as` LLVM leaves as a scalar conversion (or a branch) per lane.
+#[inline(always)]
+pub(crate) fn nearest(x: f32) -> i32 {
+    const ROUNDER: f32 = 12_582_912.0;
+    ((x + ROUNDER).to_bits() as i32).wrapping_sub(ROUNDER.to_bits() as i32)
+}
+
 /// A xorshift64 generator (Marsaglia 2003, shifts 13, 7, 17) from a non-zero `seed`: the
 /// tests' reproducible operands.
 #[cfg(test)]

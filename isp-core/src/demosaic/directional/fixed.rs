@@ -19,6 +19,7 @@ use super::{
     SMOOTH_PERCENT,
 };
 use crate::frame::{IntSample, MosaicView, RgbViewMut};
+use crate::math::nearest;
 use crate::IspError;
 
 /// Fraction bits of the ratios.
@@ -267,15 +268,6 @@ fn floor_from(q: i32, n: i32, d: i32) -> i32 {
     } else {
         q
     }
-}
-
-/// `x` rounded to the nearest integer, for `|x| < 2^22`, by adding 1.5 x 2^23, which leaves
-/// the integer in the low bits of the sum: no float-to-integer conversion, whose saturating
-/// `as` compiles to a branch per lane.
-#[inline(always)]
-fn nearest(x: f32) -> i32 {
-    const ROUNDER: f32 = 12_582_912.0;
-    ((x + ROUNDER).to_bits() as i32).wrapping_sub(ROUNDER.to_bits() as i32)
 }
 
 /// The target's [`Wide`]: [`Estimated`] where `f32` is in hardware.
