@@ -26,8 +26,8 @@
 //!   right neighbours from the other half and writes three planes of 8-bit codes, which one
 //!   pass interleaves ([`emit_rows`]).
 //! - The fixed path keeps the general engine's `u64`/`i64` products in `u32`/`i32` lanes by
-//!   splitting each Q16 constant into its integer and fraction parts ([`MulQ16`]), or in the
-//!   colour matrix each sample into its two bytes ([`colour_matrix_by_bytes`]), which is exact.
+//!   splitting each Q16 constant into its integer and fraction parts ([`MulQ16`],
+//!   [`CcmSplit`]), which is exact.
 
 use core::ops::Range;
 
@@ -169,36 +169,41 @@ pub(super) struct FixedSteps {
     wb: MulQ16,
 }
 
-/// A Q16 colour matrix `m` applied to a pixel in `i32` lanes by splitting each sample, not
-/// each coefficient: with `v = 256 vh + vl` (both below 2^8), `sum m_c v_c = 256 A + B` for
-/// `A = sum m_c vh_c` and `B = sum m_c vl_c`, so the general engine's
-/// `floor((sum m_c v_c + 2^15) / 2^16)` is `(A + ((B + 2^15) >> 8)) >> 8`: two floors by 256
-/// in turn are one by 2^16. Exact, and one sum per byte where splitting the coefficients took
-/// a sum per half and a carry per product.
-#[inline(always)]
-fn colour_matrix_by_bytes(m: &[[i32; 3]; 3], rgb: [u16; 3]) -> [u16; 3] {
-    let high = rgb.map(|v| i32::from(v >> 8));
-    let low = rgb.map(|v| i32::from(v & 0xFF));
-    [
-        matrix_row_by_bytes(m[0], high, low),
-        matrix_row_by_bytes(m[1], high, low),
-        matrix_row_by_bytes(m[2], high, low),
-    ]
+/// A Q16 colour matrix split as [`MulQ16`] splits a constant: each coefficient
+/// `m = hi * 2^16 + lo` with `lo` in `[0, 2^16)`, so `round(sum m_c v_c / 2^16)` is
+/// `sum hi_c v_c` plus the rounded sum of the `lo_c v_c`, whose high and low halves are
+/// added apart. Exact: the general engine's `i64` result in `u32` and `i32` lanes.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct CcmSplit {
+    hi: [[i32; 3]; 3],
+    lo: [[u32; 3]; 3],
 }
 
-/// One output channel of [`colour_matrix_by_bytes`]: a function marked to inline, not a
-/// closure, which LLVM may leave out of line in the large AVX2 entries (a call per pixel).
-#[inline(always)]
-fn matrix_row_by_bytes(m: [i32; 3], high: [i32; 3], low: [i32; 3]) -> u16 {
-    // |m| <= 2^19 (coefficients in [-8, 8) in Q16), bytes < 2^8: each sum < 2^29.
-    let a = m[0] * high[0] + m[1] * high[1] + m[2] * high[2];
-    let b = m[0] * low[0] + m[1] * low[1] + m[2] * low[2];
-    ((a + ((b + (1 << 15)) >> 8)) >> 8).clamp(0, 65535) as u16
+impl CcmSplit {
+    fn new(m: &[[i32; 3]; 3]) -> Self {
+        Self {
+            hi: m.map(|row| row.map(|k| k >> 16)),
+            lo: m.map(|row| row.map(|k| (k & 0xFFFF) as u32)),
+        }
+    }
+
+    /// Output channel `c` of the pixel `v`.
+    #[inline(always)]
+    fn channel(&self, c: usize, v: [u32; 3]) -> u16 {
+        let (hi, lo) = (self.hi[c], self.lo[c]);
+        // Coefficients are within [-8, 8), so |hi| <= 8 and these sums stay far from overflow.
+        let whole = hi[0] * v[0] as i32 + hi[1] * v[1] as i32 + hi[2] * v[2] as i32;
+        let p = [lo[0] * v[0], lo[1] * v[1], lo[2] * v[2]];
+        let high = (p[0] >> 16) + (p[1] >> 16) + (p[2] >> 16);
+        let low = (p[0] & 0xFFFF) + (p[1] & 0xFFFF) + (p[2] & 0xFFFF);
+        let fraction = high + ((low + (1 << 15)) >> 16);
+        (whole + fraction as i32).clamp(0, 65535) as u16
+    }
 }
 
 impl Planar for FixedPipeline<'_> {
     type Steps = FixedSteps;
-    type Matrix = [[i32; 3]; 3];
+    type Matrix = CcmSplit;
 
     fn planar_takes<O: OutputSample>(&self, _raw: &RawFrame<'_>) -> bool {
         self.lsc.is_none()
@@ -238,13 +243,14 @@ impl Planar for FixedPipeline<'_> {
         steps.wb.apply(v) as u16
     }
 
-    fn matrix(&self) -> Option<[[i32; 3]; 3]> {
-        self.ccm_q
+    fn matrix(&self) -> Option<CcmSplit> {
+        self.ccm_q.as_ref().map(CcmSplit::new)
     }
 
     #[inline(always)]
-    fn colour_matrix(m: &[[i32; 3]; 3], rgb: [u16; 3]) -> [u16; 3] {
-        colour_matrix_by_bytes(m, rgb)
+    fn colour_matrix(m: &CcmSplit, rgb: [u16; 3]) -> [u16; 3] {
+        let v = rgb.map(u32::from);
+        [m.channel(0, v), m.channel(1, v), m.channel(2, v)]
     }
 
     // The table takes every `u16`.
@@ -1123,11 +1129,11 @@ pub(super) fn encode_row<A: Planar, O: OutputSample>(
 
 #[cfg(test)]
 mod tests {
-    use super::colour_matrix_by_bytes;
+    use super::{CcmSplit, FixedPipeline, Planar};
     use crate::ccm;
     use crate::pipeline::CCM_FRAC_BITS;
 
-    /// The byte-split colour matrix is the general engine's `i64` one, at the extreme
+    /// The split colour matrix is the general engine's `i64` one, at the extreme
     /// coefficients (-8 and just below 8 in Q16), the samples' byte edges and full scale, and
     /// over random matrices and pixels.
     #[test]
@@ -1156,6 +1162,7 @@ mod tests {
                     }
                 })
             });
+            let split = CcmSplit::new(&m);
             for _ in 0..8 {
                 let rgb: [u16; 3] = core::array::from_fn(|_| {
                     if next().is_multiple_of(2) {
@@ -1165,7 +1172,7 @@ mod tests {
                     }
                 });
                 assert_eq!(
-                    colour_matrix_by_bytes(&m, rgb),
+                    FixedPipeline::colour_matrix(&split, rgb),
                     ccm::apply_u16(&m, CCM_FRAC_BITS, rgb),
                     "{m:?} {rgb:?}"
                 );
