@@ -7,9 +7,9 @@
 //! level and normalisation, lens shading ([`lsc`]), ISO gain, white balance ([`wb`], with
 //! presets and automatic white balance), demosaicing ([`demosaic`]), lens distortion
 //! correction ([`distortion`], OpenCV's `cv2.undistort` through optics-core's Brown-Conrady
-//! model), denoise ([`denoise`]), colour correction ([`ccm`], interpolated by colour
-//! temperature from a calibration), tone ([`tone`]: saturation, contrast, curve, looks) and sRGB
-//! encoding ([`srgb`]). A float reference path and a fixed-point firmware path produce the same
+//! model), denoise ([`denoise`], with the sensor's noise model in [`noise`]), colour
+//! correction ([`ccm`], interpolated by colour temperature from a calibration), tone
+//! ([`tone`]: saturation, contrast, curve, looks) and sRGB encoding ([`srgb`]). A float reference path and a fixed-point firmware path produce the same
 //! output to 1 LSB, streaming a band of rows at a time through line buffers in caller memory.
 //! [`colour`] holds the colorimetry the control code needs, [`frame`] the checked views over
 //! caller memory.
@@ -36,6 +36,7 @@ pub mod highlights;
 pub mod lsc;
 mod math;
 pub mod metrics;
+pub mod noise;
 pub mod pipeline;
 pub mod srgb;
 pub mod tone;

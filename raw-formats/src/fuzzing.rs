@@ -302,6 +302,7 @@ pub fn seed_corpus() -> Vec<(&'static str, String, Vec<u8>)> {
     with_opcodes.processing = Processing {
         baseline_exposure: Some(0.25),
         opcode_lists: lists.clone(),
+        noise_profile: isp_core::noise::NoiseProfile::new([0.003, 0.0032, 0.0035], [1e-6; 3]).ok(),
         ..Processing::default()
     };
     let bytes = with_opcodes

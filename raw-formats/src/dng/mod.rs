@@ -318,6 +318,11 @@ pub struct Processing {
     /// the static defect map for isp-core's defect correction. Found by the reader, which
     /// holds the samples at the stage each list applies to.
     pub bad_pixels: Vec<isp_core::dpc::Defect>,
+    /// NoiseProfile (tag 51041, in the raw IFD or IFD 0): the variance of a sample as `S x + O`
+    /// with `x` in units of the white level above black, one pair for every colour or one per
+    /// colour (red, green, blue) as the file states it. The writer stores one pair when every
+    /// colour has the same.
+    pub noise_profile: Option<isp_core::noise::NoiseProfile>,
 }
 
 /// How the file says its image is framed, for the developer to apply to its output.
@@ -379,6 +384,7 @@ pub(crate) mod tags {
     pub(crate) const CALIBRATION_ILLUMINANT_2: u16 = 50779;
     pub(crate) const FORWARD_MATRIX_1: u16 = 50964;
     pub(crate) const FORWARD_MATRIX_2: u16 = 50965;
+    pub(crate) const NOISE_PROFILE: u16 = 51041;
 
     pub(crate) const CFA_PHOTOMETRIC: u32 = 32803;
     pub(crate) const LINEAR_RAW_PHOTOMETRIC: u32 = 34892;
@@ -391,6 +397,7 @@ pub(crate) mod tags {
     pub(crate) const RATIONAL: u16 = 5;
     pub(crate) const UNDEFINED: u16 = 7;
     pub(crate) const SRATIONAL: u16 = 10;
+    pub(crate) const DOUBLE: u16 = 12;
 }
 
 /// The CFA colour codes (0 red, 1 green, 2 blue) of a pattern's 2x2 block, row by row.
@@ -890,6 +897,67 @@ mod tests {
         assert!(Dng::decode(&broken).is_err());
     }
 
+    /// NoiseProfile round-trips as one pair or one per colour, in either byte order and with
+    /// the raw in a SubIFD; a profile in IFD 0 is found for a raw in a SubIFD; a count other
+    /// than 2 or 6, a negative, non-finite or too large term, or a zero pair is refused.
+    #[test]
+    fn noise_profile_round_trips_and_is_validated() {
+        use isp_core::noise::NoiseProfile;
+        let mut d = sample();
+        for profile in [
+            NoiseProfile::uniform(0.0032, 4.5e-6).unwrap(),
+            NoiseProfile::new([0.003, 0.0032, 0.0035], [1e-6, 2e-6, 0.0]).unwrap(),
+        ] {
+            d.processing.noise_profile = Some(profile);
+            for little_endian in [true, false] {
+                let options = EncodeOptions {
+                    little_endian,
+                    ..EncodeOptions::default()
+                };
+                let back = Dng::decode(&d.encode_with(&options).unwrap()).unwrap();
+                assert_eq!(back.processing.noise_profile, Some(profile));
+                let back = Dng::decode(&d.encode_with_preview(&options).unwrap()).unwrap();
+                assert_eq!(back.processing.noise_profile, Some(profile));
+            }
+        }
+        let bytes = d.encode().unwrap();
+        let file = tiff::Tiff::new(&bytes).unwrap();
+        let ifd0 = file.ifd(file.u32_at(4).unwrap() as usize).unwrap();
+        assert_eq!(
+            file.numbers(ifd0.get(NOISE_PROFILE).unwrap())
+                .unwrap()
+                .len(),
+            6
+        );
+
+        let with = |values: Vec<f64>| {
+            let entry = write::Entry {
+                tag: NOISE_PROFILE,
+                values: write::Values::Double(values),
+            };
+            Dng::decode(
+                &sample()
+                    .encode_with_entries(&EncodeOptions::default(), vec![entry])
+                    .unwrap(),
+            )
+        };
+        let p = with(vec![0.01, 1e-5]).unwrap().processing.noise_profile;
+        assert_eq!(p, Some(NoiseProfile::uniform(0.01, 1e-5).unwrap()));
+        for bad in [
+            vec![0.01],
+            vec![0.01, 1e-5, 0.02, 1e-5],
+            vec![-0.01, 1e-5],
+            vec![0.01, f64::NAN],
+            vec![0.01, f64::INFINITY],
+            vec![2.0, 1e-5],
+            vec![0.0, 0.0],
+            vec![0.01, 1e-5, 0.0, 0.0, 0.01, 1e-5],
+        ] {
+            let e = with(bad.clone()).unwrap_err();
+            assert!(e.to_string().contains("NoiseProfile"), "{bad:?}: {e}");
+        }
+    }
+
     fn ifd0_count(bytes: &[u8]) -> usize {
         usize::from(u16::from_le_bytes([bytes[8], bytes[9]]))
     }
@@ -1010,7 +1078,7 @@ mod tests {
                 }],
                 vec![],
             ],
-            bad_pixels: Vec::new(),
+            ..Processing::default()
         };
         for little_endian in [true, false] {
             let options = EncodeOptions {

@@ -2,6 +2,7 @@
 //! the active area and reads its levels, colour tags and framing.
 
 use isp_core::colour::Mat3;
+use isp_core::noise::NoiseProfile;
 use isp_core::CfaPattern;
 
 use super::tags::*;
@@ -460,6 +461,7 @@ impl Tiff<'_> {
                 .filter(|v| v.is_finite()),
             opcode_lists: lists,
             bad_pixels,
+            noise_profile: self.noise_profile(ifd, ifd0)?,
         };
         let colour = self.colour(ifd0)?;
         let camera_model = self
@@ -679,6 +681,31 @@ impl Tiff<'_> {
             default_crop,
             orientation,
         })
+    }
+
+    /// NoiseProfile, from the raw IFD (where DNG 1.3 puts it) or else IFD 0 (where writers
+    /// whose raw is a SubIFD often leave it): 2 values for every plane or 6, one pair per
+    /// colour plane (red, green, blue).
+    fn noise_profile(&self, ifd: &Ifd, ifd0: &Ifd) -> Result<Option<NoiseProfile>> {
+        let Some(e) = ifd.get(NOISE_PROFILE).or_else(|| ifd0.get(NOISE_PROFILE)) else {
+            return Ok(None);
+        };
+        let v = self.numbers(e)?;
+        let refuse = || {
+            FormatError::Unsupported {
+            field: "NoiseProfile",
+            value: format!("{v:?}"),
+            supported: "2 or 6 values (S, O per colour plane), each finite and in [0, 1], S and O not both 0",
+        }
+        };
+        let (scale, offset): ([f64; 3], [f64; 3]) = match v.as_slice() {
+            [s, o] => ([*s; 3], [*o; 3]),
+            [sr, or, sg, og, sb, ob] => ([*sr, *sg, *sb], [*or, *og, *ob]),
+            _ => return Err(refuse()),
+        };
+        NoiseProfile::new(scale.map(|s| s as f32), offset.map(|o| o as f32))
+            .map(Some)
+            .map_err(|_| refuse())
     }
 
     /// The colour tags, which live in IFD 0.

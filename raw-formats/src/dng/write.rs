@@ -71,6 +71,7 @@ pub(crate) enum Values {
     Long(Vec<u32>),
     Rational(Vec<(u32, u32)>),
     SRational(Vec<(i32, i32)>),
+    Double(Vec<f64>),
 }
 
 pub(crate) struct Entry {
@@ -88,6 +89,7 @@ impl Entry {
             Values::Long(v) => (LONG, v.len()),
             Values::Rational(v) => (RATIONAL, v.len()),
             Values::SRational(v) => (SRATIONAL, v.len()),
+            Values::Double(v) => (DOUBLE, v.len()),
         }
     }
 
@@ -105,6 +107,16 @@ impl Entry {
             Values::SRational(v) => v
                 .iter()
                 .flat_map(|(n, d)| [u32b(*n as u32), u32b(*d as u32)].concat())
+                .collect(),
+            Values::Double(v) => v
+                .iter()
+                .flat_map(|x| {
+                    if little {
+                        x.to_le_bytes()
+                    } else {
+                        x.to_be_bytes()
+                    }
+                })
                 .collect(),
         }
     }
@@ -624,6 +636,19 @@ impl Dng {
                 });
             }
             entries.push(srational(BASELINE_EXPOSURE, &[ev]));
+        }
+        if let Some(p) = self.processing.noise_profile {
+            let pairs: Vec<f64> = if p.is_uniform() {
+                vec![p.scale()[0].into(), p.offset()[0].into()]
+            } else {
+                (0..3)
+                    .flat_map(|c| [p.scale()[c].into(), p.offset()[c].into()])
+                    .collect()
+            };
+            entries.push(Entry {
+                tag: NOISE_PROFILE,
+                values: Values::Double(pairs),
+            });
         }
         for (list, tag) in self.processing.opcode_lists.iter().zip(OPCODE_LISTS) {
             if !list.is_empty() {
