@@ -627,7 +627,11 @@ pub fn run(
             ..captured.dng_colour.clone()
         },
         framing: Default::default(),
-        processing: Default::default(),
+        // The noise the sensor implies, so a developer of raw.dng needs no estimate.
+        processing: raw_formats::dng::Processing {
+            noise_profile: Some(capture.noise_profile),
+            ..Default::default()
+        },
     };
     dng.write(&out("raw.dng"))?;
     raw_formats::image::write(
