@@ -66,6 +66,11 @@ pub enum Error {
     Options(crate::isp_options::OptionError),
     /// A command-level refusal in words (a combination of flags that does not go together).
     Message(String),
+    /// The frame's noise profile could not be estimated from it.
+    NoiseEstimate {
+        /// Why, in words.
+        reason: &'static str,
+    },
 }
 
 impl Error {
@@ -104,6 +109,9 @@ impl fmt::Display for Error {
             Self::Simulation(e) => e.fmt(f),
             Self::Options(e) => e.fmt(f),
             Self::Message(message) => f.write_str(message),
+            Self::NoiseEstimate { reason } => {
+                write!(f, "the noise profile could not be estimated: {reason}")
+            }
         }
     }
 }

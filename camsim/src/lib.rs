@@ -10,6 +10,8 @@
 //! - [`demosaic`]: isp-core's demosaicing methods on files and their accuracy against speed
 //!   (`camsim demosaic`, `camsim bench demosaic`).
 //! - [`dof`]: the depth-of-field calculator (`camsim dof`).
+//! - [`noise_estimate`]: a raw frame's noise profile estimated from the frame (Foi et al.
+//!   2008), for raws whose file states none.
 //! - [`suite`]: the benchmark suites, charted (`camsim bench` without a subcommand).
 //!
 //! Errors are [`Error`] values; quality figures come from [`isp_core::metrics`].
@@ -21,6 +23,7 @@ pub mod develop;
 pub mod dof;
 mod error;
 pub mod isp_options;
+pub mod noise_estimate;
 pub mod suite;
 
 pub use error::Error;
