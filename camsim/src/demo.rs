@@ -192,6 +192,9 @@ pub struct DemoReport {
     pub awb_angular_error_deg: f64,
     /// The AWB's correlated colour temperature, kelvin.
     pub cct_k: f64,
+    /// The sensor's noise profile as raw.dng states it: `source`, `scale` and `offset` per
+    /// colour (`var = S x + O`, `x` a fraction of white above black).
+    pub noise_profile: serde_json::Value,
     /// Files written.
     pub files: Vec<String>,
 }
@@ -650,11 +653,12 @@ pub fn run(
     // 5. ISP, read back from the DNG as `camsim isp` would.
     step(5, "ISP: float reference and fixed-point paths");
     let back = Dng::read(&out("raw.dng"))?;
-    if back.image != capture.raw {
+    if back.image != capture.raw || back.processing.noise_profile != Some(capture.noise_profile) {
         return Err(Error::Message(
-            "raw.dng did not read back the same frame".into(),
+            "raw.dng did not read back the same frame and noise profile".into(),
         ));
     }
+    let noise = develop::Noise::File(capture.noise_profile);
     let raw_back = back.image.frame()?;
     let isp_config = captured.isp_config(args.demosaic, captured.default_denoise())?;
     // The demo's report lists each stage's time: ablation on the demo's small frame.
@@ -763,6 +767,7 @@ pub fn run(
         illuminant: captured.illuminant.clone(),
         awb_angular_error_deg: captured.awb_angular_error_deg,
         cct_k: awb.cct_k,
+        noise_profile: noise.to_json(),
         files: names.iter().map(|n| out(n).display().to_string()).collect(),
     };
     let json = report_json(&report);
@@ -770,6 +775,7 @@ pub fn run(
         &report,
         started.elapsed().as_secs_f64(),
         &float_report.stages,
+        &noise,
     );
     for (name, text) in [("report.json", &json), ("report.txt", &text)] {
         std::fs::write(out(name), text).map_err(|e| raw_formats::FormatError::io(out(name), e))?;
@@ -781,7 +787,7 @@ fn report_json(r: &DemoReport) -> String {
     serde_json::to_string_pretty(r).unwrap_or_default() + "\n"
 }
 
-fn report_text(r: &DemoReport, total_s: f64, stages: &[&str]) -> String {
+fn report_text(r: &DemoReport, total_s: f64, stages: &[&str], noise: &develop::Noise) -> String {
     let mut t = format!(
         "camsim demo: {} through a simulated {} ({} sensor), {} x {}, {} spp\n",
         r.scene, r.camera, r.sensor, r.width, r.height, r.spp
@@ -790,6 +796,7 @@ fn report_text(r: &DemoReport, total_s: f64, stages: &[&str]) -> String {
         "  render            {:8.2} s\n  sensor            {:8.2} s (exposure {:.4} s)\n  ISP float / fixed {:8.1} / {:.1} ms\n",
         r.render_s, r.sensor_s, r.exposure_s, r.isp_total_ms, r.isp_fixed_total_ms
     );
+    t += &format!("  {}\n", noise.to_text());
     t += &format!("  ISP stages: {}\n", stages.join(" -> "));
     for (name, ms) in &r.isp_stage_ms {
         t += &format!("    {name:<28} {ms:>8.2} ms\n");
@@ -850,10 +857,12 @@ mod tests {
             illuminant: "D65".into(),
             awb_angular_error_deg: 1.0,
             cct_k: 6500.0,
+            noise_profile: develop::Noise::Unknown("test".into()).to_json(),
             files: vec![],
         };
         let v: serde_json::Value = serde_json::from_str(&report_json(&report)).unwrap();
         assert_eq!(v["isp_stage_ms"]["colour matrix"], 1.5);
         assert!(v["delta_e_2000_mean"].is_null());
+        assert_eq!(v["noise_profile"]["source"], "none");
     }
 }

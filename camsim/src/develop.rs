@@ -18,6 +18,7 @@ use isp_core::distortion::{BrownConrady, LensDistortion};
 use isp_core::dpc::DpcConfig;
 use isp_core::frame::{LinearFrame, RawFrame, RgbViewMut};
 use isp_core::lsc::LensShading;
+use isp_core::noise::NoiseProfile;
 use isp_core::pipeline::{FixedPipeline, FloatPipeline, Input, IspConfig, OutputSample};
 use isp_core::tone::Look;
 use isp_core::wb::{self, AwbEstimate};
@@ -55,9 +56,118 @@ pub struct IspReport {
     pub framing: Option<String>,
     /// The file's BaselineExposure in EV, when applied.
     pub baseline_exposure: Option<f64>,
+    /// The raw's noise profile and where it came from.
+    pub noise: Noise,
+}
+
+/// The raw's noise profile (`var = S x + O`, [`isp_core::noise`]) as [`develop`] resolved it:
+/// from `--noise-profile` (or the config file), else the file's NoiseProfile tag, else
+/// estimated from the frame ([`crate::noise_estimate`]).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Noise {
+    /// Given as an option.
+    Option(NoiseProfile),
+    /// The file's NoiseProfile tag.
+    File(NoiseProfile),
+    /// Estimated from the frame, over this many level sets.
+    Estimated(NoiseProfile, usize),
+    /// None could be had, and why.
+    Unknown(String),
+}
+
+impl Default for Noise {
+    fn default() -> Self {
+        Noise::Unknown("not resolved".into())
+    }
+}
+
+impl Noise {
+    /// The profile, if there is one.
+    pub fn profile(&self) -> Option<NoiseProfile> {
+        match self {
+            Noise::Option(p) | Noise::File(p) | Noise::Estimated(p, _) => Some(*p),
+            Noise::Unknown(_) => None,
+        }
+    }
+
+    /// Where it came from, as `--json` names it: `option`, `file`, `estimated` or `none`.
+    pub fn source(&self) -> &'static str {
+        match self {
+            Noise::Option(_) => "option",
+            Noise::File(_) => "file",
+            Noise::Estimated(..) => "estimated",
+            Noise::Unknown(_) => "none",
+        }
+    }
+
+    /// One line for the report.
+    pub fn to_text(&self) -> String {
+        let (p, from) = match self {
+            Noise::Option(p) => (p, "from --noise-profile".to_string()),
+            Noise::File(p) => (p, "from the file's NoiseProfile tag".to_string()),
+            Noise::Estimated(p, sets) => (
+                p,
+                format!("estimated from the frame, Foi et al. 2008's level sets ({sets}); --noise-profile S,O overrides"),
+            ),
+            Noise::Unknown(why) => return format!("noise profile: none ({why})"),
+        };
+        let (s, o) = (p.scale(), p.offset());
+        let values = if p.is_uniform() {
+            format!("S {:.4e} O {:.4e}", s[0], o[0])
+        } else {
+            format!(
+                "R S {:.4e} O {:.4e}, G S {:.4e} O {:.4e}, B S {:.4e} O {:.4e}",
+                s[0], o[0], s[1], o[1], s[2], o[2]
+            )
+        };
+        format!("noise profile: {values} (variance S x + O, x a fraction of white), {from}")
+    }
+
+    /// `{"source": ..., "scale": [R, G, B], "offset": [R, G, B]}`, or with `"reason"` when
+    /// there is none.
+    pub fn to_json(&self) -> serde_json::Value {
+        match (self.profile(), self) {
+            // Each f32 as the shortest decimal that reads back to it, not its f64 widening.
+            (Some(p), _) => {
+                let decimal = |v: [f32; 3]| v.map(|x| x.to_string().parse::<f64>().unwrap_or(0.0));
+                serde_json::json!({
+                    "source": self.source(),
+                    "scale": decimal(p.scale()),
+                    "offset": decimal(p.offset()),
+                })
+            }
+            (None, Noise::Unknown(why)) => serde_json::json!({
+                "source": "none",
+                "reason": why,
+            }),
+            (None, _) => serde_json::json!({ "source": self.source() }),
+        }
+    }
 }
 
 impl IspReport {
+    /// The report as JSON (`camsim isp --json`): the path, stages, white balance (and the AWB
+    /// estimate), the noise profile and its source, times in ms, threads, framing and
+    /// baseline exposure.
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "path": if self.fixed { "fixed" } else { "float" },
+            "stages": self.stages,
+            "wb_gains": self.wb_gains,
+            "awb": self.awb.map(|a| serde_json::json!({
+                "gains": a.gains,
+                "cct_k": a.cct_k,
+            })),
+            "noise_profile": self.noise.to_json(),
+            "total_ms": self.total_ms,
+            "stage_ms": self.stage_ms.iter().map(|(n, ms)| (n.to_string(), serde_json::json!(ms)))
+                .collect::<serde_json::Map<_, _>>(),
+            "threads": self.threads,
+            "framing": self.framing,
+            "baseline_exposure_ev": self.baseline_exposure,
+        })
+    }
+
     /// The readable report.
     pub fn to_text(&self) -> String {
         let path = if self.fixed { "fixed" } else { "float" };
@@ -80,6 +190,8 @@ impl IspReport {
                 "distortion: k1 {k1} k2 {k2} p1 {p1} p2 {p2} k3 {k3}, camera fx {fx} fy {fy} cx {cx} cy {cy}, window {window} rows\n"
             );
         }
+        out += &self.noise.to_text();
+        out += "\n";
         if let Some(ev) = self.baseline_exposure {
             out += &format!(
                 "baseline exposure: {ev:+.2} EV from the file, as gain {:.4} (--no-baseline-exposure turns it off)\n",
@@ -132,6 +244,8 @@ pub struct RawInput {
     pub framing: Framing,
     /// The file's BaselineExposure in EV, applied as gain unless turned off.
     pub baseline_exposure: Option<f64>,
+    /// The file's NoiseProfile.
+    pub noise_profile: Option<NoiseProfile>,
     /// The opcodes the file lists that the pipeline does not apply (all but the bad-pixel
     /// lists of a CFA image, OpcodeList2's GainMaps and the first WarpRectilinear of
     /// OpcodeList3 that OpenCV's model expresses; OpcodeList2's maps the reader has applied),
@@ -149,6 +263,7 @@ impl RawInput {
             calibration: None,
             framing: Framing::default(),
             baseline_exposure: None,
+            noise_profile: None,
             opcodes_not_applied: Vec::new(),
         }
     }
@@ -222,6 +337,7 @@ impl RawInput {
             calibration,
             framing: dng.framing,
             baseline_exposure: dng.processing.baseline_exposure,
+            noise_profile: dng.processing.noise_profile,
             opcodes_not_applied: dng
                 .processing
                 .opcode_lists
@@ -281,6 +397,7 @@ pub fn develop(
         let (mut report, rgb) = execute(p.input, &p.config, p.fixed, p.out_bits, run)?;
         report.awb = p.awb;
         report.baseline_exposure = p.baseline_ev;
+        report.noise = p.noise.clone();
         let (rgb, framing) = frame(rgb, &input.framing, p.crop)?;
         report.framing = framing;
         Ok((report, rgb))
@@ -288,7 +405,7 @@ pub fn develop(
 }
 
 /// What [`develop`] resolved from the options, the file and the defaults, ready to run.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct Prepared<'a> {
     /// The frame.
     pub input: Input<'a>,
@@ -304,6 +421,8 @@ pub struct Prepared<'a> {
     pub baseline_ev: Option<f64>,
     /// How to frame the output.
     pub crop: CropChoice,
+    /// The raw's noise profile and where it came from.
+    pub noise: Noise,
 }
 
 /// Resolves `options` (each unset option from the file's defaults, then the built-in
@@ -452,6 +571,19 @@ pub fn with_prepared<R>(
     config.validate()?;
     let fixed = options.fixed.unwrap_or(false);
     let out_bits = options.out_bits.unwrap_or(8);
+    let noise = match (options.noise_profile, input.noise_profile, &raw) {
+        (Some(p), _, _) => Noise::Option(p),
+        (None, Some(p), _) => Noise::File(p),
+        (None, None, Input::Linear(_)) => Noise::Unknown(
+            "a linear (demosaiced) frame is not estimated; give --noise-profile".into(),
+        ),
+        (None, None, Input::Mosaic(_)) => {
+            match crate::noise_estimate::estimate(&image.samples, w, h, pattern, black, white) {
+                Ok(e) => Noise::Estimated(e.profile, e.sets),
+                Err(e) => Noise::Unknown(format!("{e}; give --noise-profile")),
+            }
+        }
+    };
     then(Prepared {
         input: raw,
         config,
@@ -460,6 +592,7 @@ pub fn with_prepared<R>(
         awb,
         baseline_ev,
         crop: options.crop.unwrap_or_default(),
+        noise,
     })
 }
 
@@ -569,6 +702,7 @@ pub fn execute(
         threads,
         framing: None,
         baseline_exposure: None,
+        noise: Noise::default(),
     };
     let rgb = Image {
         width: w,

@@ -13,6 +13,7 @@
 //! ccm = [[1.6, -0.4, -0.2], [-0.3, 1.5, -0.2], [0.0, -0.5, 1.5]]
 //! demosaic = "mhc"
 //! denoise = 0.02
+//! noise-profile = [0.0032, 1.2e-5]  # var = S x + O (x: fraction of white above black); or six, S, O per R G B
 //! highlight-knee = 0.9             # clipped colour fades to neutral above it; 1 is off
 //! sharpen = 0.5                    # unsharp mask on luma, [0, 4]; 0 is off
 //! dpc-threshold = 400
@@ -38,6 +39,7 @@ use std::path::{Path, PathBuf};
 
 use isp_core::demosaic::Method;
 use isp_core::dpc::Defect;
+use isp_core::noise::NoiseProfile;
 use isp_core::tone::Look;
 use isp_core::wb::AwbMethod;
 use isp_core::CfaPattern;
@@ -173,6 +175,8 @@ pub struct IspOptions {
     pub demosaic: Option<Method>,
     /// Denoise strength.
     pub denoise: Option<f32>,
+    /// The raw's noise profile (else the file's, else estimated from the frame).
+    pub noise_profile: Option<NoiseProfile>,
     /// Dynamic defective-pixel threshold.
     pub dpc_threshold: Option<u16>,
     /// Static defective pixels, sorted.
@@ -233,6 +237,7 @@ impl IspOptions {
             ccm: self.ccm.or(fallback.ccm),
             demosaic: self.demosaic.or(fallback.demosaic),
             denoise: self.denoise.or(fallback.denoise),
+            noise_profile: self.noise_profile.or(fallback.noise_profile),
             dpc_threshold: self.dpc_threshold.or(fallback.dpc_threshold),
             defects: self.defects.or(fallback.defects),
             lsc: self.lsc.or(fallback.lsc),
@@ -357,6 +362,23 @@ pub fn distortion(values: Vec<f64>, what: &str) -> Result<[f64; 5]> {
     Ok([d[0], d[1], d[2], d[3], d.get(4).copied().unwrap_or(0.0)])
 }
 
+/// A noise profile: `S, O` for every colour, or `S_R, O_R, S_G, O_G, S_B, O_B` (the DNG
+/// NoiseProfile's order), each in `[0, 1]` and no colour's pair both 0.
+pub fn noise_profile(values: Vec<f64>, what: &str) -> Result<NoiseProfile> {
+    let v = count_of(values, what, &[2, 6])?;
+    let pairs: [(f64, f64); 3] = match v.as_slice() {
+        [s, o] => [(*s, *o); 3],
+        v => std::array::from_fn(|c| (v[2 * c], v[2 * c + 1])),
+    };
+    NoiseProfile::new(pairs.map(|p| p.0 as f32), pairs.map(|p| p.1 as f32)).map_err(|_| {
+        OptionError::not_allowed(
+            what,
+            "S,O or six values S,O per colour R, G, B; each in [0, 1], S and O not both 0",
+            format!("{v:?}"),
+        )
+    })
+}
+
 /// Camera matrix entries `fx, fy, cx, cy`.
 pub fn camera_matrix(values: Vec<f64>, what: &str) -> Result<[f64; 4]> {
     let c = count_of(values, what, &[4])?;
@@ -364,7 +386,7 @@ pub fn camera_matrix(values: Vec<f64>, what: &str) -> Result<[f64; 4]> {
 }
 
 /// The file's keys, each the name of a flag (or a table the command line has no flag for).
-const KEYS: [&str; 22] = [
+const KEYS: [&str; 23] = [
     "pattern",
     "bits",
     "black-level",
@@ -375,6 +397,7 @@ const KEYS: [&str; 22] = [
     "ccm",
     "demosaic",
     "denoise",
+    "noise-profile",
     "dpc-threshold",
     "defects",
     "lsc",
@@ -536,6 +559,9 @@ pub fn from_toml(text: &str, file: &Path) -> Result<IspOptions> {
             "ccm" => options.ccm = Some(f.check(matrix(f.numbers()?, key))?),
             "demosaic" => options.demosaic = Some(f.check(demosaic(f.string()?, key))?),
             "denoise" => options.denoise = Some(f.scalar()? as f32),
+            "noise-profile" => {
+                options.noise_profile = Some(f.check(noise_profile(f.numbers()?, key))?)
+            }
             "dpc-threshold" => options.dpc_threshold = Some(f.integer(65535)? as u16),
             "defects" => options.defects = Some(defects(&f)?),
             "lsc" => options.lsc = Some(shading(&f)?),

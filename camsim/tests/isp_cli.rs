@@ -1017,3 +1017,128 @@ fn bench_isp_reports_the_pipeline_beside_its_peers() {
     assert!(figures["opencv"].is_null(), "{figures}");
     assert!(stderr.contains("OpenCV peer was skipped"), "{stderr}");
 }
+
+/// The noise profile: `--noise-profile` wins over the file's NoiseProfile tag, which wins over
+/// an estimate from the frame; the text report and `--json` name the source; a malformed
+/// profile is refused naming the flag (or the config file's key).
+#[test]
+fn isp_resolves_and_reports_the_noise_profile() {
+    use host_tracer::random::Rng;
+    use host_tracer::sensor::pixel;
+    use isp_core::noise::NoiseProfile;
+    use raw_formats::dng::{Dng, Processing};
+    let dir = common::temp_dir("isp-noise");
+    let (w, h) = (320usize, 256usize);
+    let (scale, offset) = (0.004, 2e-5);
+    let mut rng = Rng::new(5, 1);
+    let samples: Vec<u16> = (0..w * h)
+        .map(|i| {
+            let truth = 0.05 + 0.8 * (i % w) as f64 / w as f64;
+            let noisy = truth + (scale * truth + offset).sqrt() * pixel::normal(&mut rng);
+            (256.0 + noisy * 3839.0).round().clamp(0.0, 4095.0) as u16
+        })
+        .collect();
+    let pgm = dir.join("noisy.pgm");
+    let image = Image {
+        width: w,
+        height: h,
+        channels: 1,
+        bits: 16,
+        data: samples.clone(),
+    };
+    imageio::write(&pgm, &image).unwrap();
+    let raw = raw_formats::RawImage::new(
+        w,
+        h,
+        isp_core::CfaPattern::Rggb,
+        12,
+        [256; 4],
+        4095,
+        samples,
+    )
+    .unwrap();
+    let stated = NoiseProfile::uniform(0.0035, 1.5e-5).unwrap();
+    let dng = dir.join("noisy.dng");
+    Dng {
+        image: raw,
+        camera_model: "noise test".into(),
+        colour: Default::default(),
+        framing: Default::default(),
+        processing: Processing {
+            noise_profile: Some(stated),
+            ..Processing::default()
+        },
+    }
+    .write(&dng)
+    .unwrap();
+    let out = dir.join("out.png");
+    let json = |extra: &[&str], input: &std::path::Path| {
+        let mut args = vec![
+            "isp",
+            "--input",
+            input.to_str().unwrap(),
+            "--output",
+            out.to_str().unwrap(),
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        let (ok, stdout, stderr) = camsim(&args);
+        assert!(ok, "{args:?}: {stderr}");
+        let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+        v["noise_profile"].clone()
+    };
+    // A plain mosaic: estimated, near the truth.
+    let pgm_args = ["--bits", "12", "--black-level", "256", "--white-level", "4095"];
+    let estimated = json(&pgm_args, &pgm);
+    assert_eq!(estimated["source"], "estimated");
+    let s = estimated["scale"][1].as_f64().unwrap();
+    assert!((s / scale - 1.0).abs() < 0.2, "estimated S {s}");
+    // The DNG's tag, exactly.
+    let file = json(&[], &dng);
+    assert_eq!(file["source"], "file");
+    assert_eq!(file["scale"][0].as_f64(), Some(0.0035));
+    assert_eq!(file["offset"][2].as_f64(), Some(1.5e-5));
+    // The flag wins, per colour.
+    let flag = ["--noise-profile", "0.001,1e-6,0.002,2e-6,0.003,3e-6"];
+    let given = json(&flag, &dng);
+    assert_eq!(given["source"], "option");
+    assert_eq!(given["scale"][2].as_f64(), Some(0.003));
+    // The text report says the same.
+    let (ok, text, _) = camsim(&[
+        "isp",
+        "--input",
+        dng.to_str().unwrap(),
+        "--output",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok && text.contains("from the file's NoiseProfile tag"), "{text}");
+    // From a config file, and refusals.
+    let config = dir.join("noise.toml");
+    std::fs::write(&config, "noise-profile = [0.002, 3e-6]\n").unwrap();
+    let from_config = json(&["--config", config.to_str().unwrap()], &dng);
+    assert_eq!(from_config["scale"][1].as_f64(), Some(0.002));
+    for bad in ["0.001", "-0.1,0", "0.001,nan", "0,0"] {
+        let (ok, _, stderr) = camsim(&[
+            "isp",
+            "--input",
+            dng.to_str().unwrap(),
+            "--output",
+            out.to_str().unwrap(),
+            "--noise-profile",
+            bad,
+        ]);
+        assert!(!ok && stderr.contains("--noise-profile"), "{bad}: {stderr}");
+    }
+    std::fs::write(&config, "noise-profile = [0.002]\n").unwrap();
+    let (ok, _, stderr) = camsim(&[
+        "isp",
+        "--input",
+        dng.to_str().unwrap(),
+        "--output",
+        out.to_str().unwrap(),
+        "--config",
+        config.to_str().unwrap(),
+    ]);
+    assert!(!ok && stderr.contains("noise-profile"), "{stderr}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -33,6 +33,10 @@ pub struct IspArgs {
     /// a run without it).
     #[arg(long)]
     pub stage_times: bool,
+    /// Print the report as JSON (stages, white balance, the noise profile and its source,
+    /// times) instead of text.
+    #[arg(long)]
+    pub json: bool,
     /// How to process.
     #[command(flatten)]
     pub processing: ProcessingArgs,
@@ -83,6 +87,12 @@ pub struct ProcessingArgs {
     /// Denoise strength in linear units, [0, 1]; 0 is off [default: 0].
     #[arg(long)]
     pub denoise: Option<f32>,
+    /// The raw's noise profile: S,O for every colour, or S,O per colour R, G, B (six values),
+    /// the variance of a sample at signal x (a fraction of white above black) being S x + O,
+    /// as the DNG NoiseProfile tag states it [default: the file's NoiseProfile, else estimated
+    /// from the frame].
+    #[arg(long, allow_hyphen_values = true)]
+    pub noise_profile: Option<String>,
     /// Highlight knee, [0, 1]: a white-balanced pixel whose largest channel passes it fades to
     /// neutral, fully at the clip, so clipped highlights come out white rather than magenta or
     /// speckled; 1 is off [default: 0.9].
@@ -150,6 +160,9 @@ impl ProcessingArgs {
                 .transpose()?,
             demosaic: self.demosaic.map(Into::into),
             denoise: self.denoise,
+            noise_profile: list(&self.noise_profile, "--noise-profile", &[2, 6])?
+                .map(|v| options::noise_profile(v, "--noise-profile"))
+                .transpose()?,
             dpc_threshold: self.dpc_threshold,
             defects: None,
             lsc: None,
@@ -222,5 +235,10 @@ pub fn run(args: &IspArgs) -> Result<String, Error> {
         jpeg_quality: args.jpeg_quality.unwrap_or(90),
     };
     raw_formats::image::write_with(&args.output, &rgb, &write_options)?;
+    if args.json {
+        let mut json = report.to_json();
+        json["output"] = args.output.display().to_string().into();
+        return Ok(serde_json::to_string_pretty(&json).unwrap_or_default() + "\n");
+    }
     Ok(report.to_text() + &format!("wrote {}\n", args.output.display()))
 }
