@@ -168,6 +168,10 @@ pub struct DemoReport {
     pub sensor_s: f64,
     /// Exposure time used, s.
     pub exposure_s: f64,
+    /// ISO the sensor ran at.
+    pub iso: f64,
+    /// Whether the exposure was metered (no `--exposure`): it then falls as ISO rises.
+    pub exposure_metered: bool,
     /// ISP stage times (float path), ms, in pipeline order (a JSON object).
     #[serde(serialize_with = "stage_map")]
     pub isp_stage_ms: Vec<(String, f64)>,
@@ -516,10 +520,22 @@ pub fn capture(
     let to_xyz = calibration.camera_to_xyz(6504.0)?;
     let mut awb = wb::estimate(&raw_frame, args.awb, &to_xyz)?;
     awb.cct_k = calibration.cct_of_neutral(awb.neutral)?;
-    let (_, true_neutral) = if spectral {
-        calibrate::illuminant_colour(&illuminant, &response)?
-    } else {
-        ([0.0; 3], [1.0; 3])
+    // An RGB scene's light is its emitters' colour in linear sRGB, which is camera RGB on the
+    // RGB path: the neutral a perfect AWB finds.
+    let rgb_light = (!spectral).then(|| scene.light_rgb()).flatten();
+    let (_, true_neutral) = match rgb_light {
+        _ if spectral => calibrate::illuminant_colour(&illuminant, &response)?,
+        Some(light) => ([0.0; 3], light.map(|v| f64::from(v / light[1]))),
+        None => ([0.0; 3], [1.0; 3]),
+    };
+    let illuminant = match rgb_light {
+        Some(l) if !spectral && !(l[0] == l[1] && l[1] == l[2]) => format!(
+            "the scene's light, linear sRGB {:.3} {:.3} {:.3}",
+            l[0] / l[1],
+            1.0,
+            l[2] / l[1]
+        ),
+        _ => illuminant,
     };
     let awb_angular_error_deg = angular_error_deg(awb.neutral.map(|v| v as f64), true_neutral);
     let ccm = calibration
@@ -527,20 +543,35 @@ pub fn capture(
         .map_err(|e| Error::in_stage("colour matrix", e))?
         .ccm;
 
+    // The light's white, XYZ: a named illuminant's, or an RGB scene's light through sRGB's
+    // primaries (camera RGB is linear sRGB there).
+    let light_xyz = match rgb_light {
+        _ if spectral => Some(bands_xyz(&illuminant_bands(&illuminant)?)),
+        Some(l) => Some(colour::mat3_mul_vec(
+            &colour::LINEAR_SRGB_TO_XYZ,
+            l.map(f64::from),
+        )),
+        None => None,
+    };
     // The truth's scale: a neutral under the scene illuminant with camera green g (in ISP
     // units) comes out of a perfect ISP with luminance g.
-    let green_per_luminance = if spectral {
-        let bands = illuminant_bands(&illuminant)?;
-        response.of_bands(&bands)[1] as f64 / bands_xyz(&bands)[1]
-    } else {
-        1.0
+    let green_per_luminance = match (rgb_light, light_xyz) {
+        _ if spectral => {
+            let bands = illuminant_bands(&illuminant)?;
+            response.of_bands(&bands)[1] as f64 / bands_xyz(&bands)[1]
+        }
+        (Some(l), Some(xyz)) => f64::from(l[1]) / xyz[1],
+        _ => 1.0,
     };
     let scale = (capture.units_per_radiance * green_per_luminance) as f32;
     // Under another light than D65 the truth is the scene as a white-balanced camera shows
-    // it: its colours adapted (Bradford) from the illuminant's white to sRGB's D65 white,
-    // which is what the ISP's white balance and colour matrix aim at.
-    let adapt = if spectral && illuminant != "D65" {
-        let white = bands_xyz(&illuminant_bands(&illuminant)?);
+    // it: its colours adapted (Bradford) from the light's white to sRGB's D65 white, which is
+    // what the ISP's white balance and colour matrix aim at. For an RGB scene the light's
+    // white is its colour through sRGB's primaries.
+    let adapt = if (spectral && illuminant != "D65") || (!spectral && light_xyz.is_some()) {
+        let Some(white) = light_xyz else {
+            return Err(Error::Message("the scene's light has no white".into()));
+        };
         let white = white.map(|v| v / white[1]);
         let to_d65 = colour::bradford_adaptation(white, colour::xy_to_xyz(colour::D65_XY)?)?;
         Some(colour::mat3_mul(
@@ -748,6 +779,8 @@ pub fn run(
         render_s: captured.render_s,
         sensor_s: captured.sensor_s,
         exposure_s: capture.exposure_s,
+        iso: args.iso,
+        exposure_metered: args.exposure.is_none(),
         isp_stage_ms: float_report
             .stage_ms
             .iter()
@@ -792,9 +825,14 @@ fn report_text(r: &DemoReport, total_s: f64, stages: &[&str], noise: &develop::N
         "camsim demo: {} through a simulated {} ({} sensor), {} x {}, {} spp\n",
         r.scene, r.camera, r.sensor, r.width, r.height, r.spp
     );
+    let metered = if r.exposure_metered {
+        "metered: it falls as ISO rises; --exposure sets it"
+    } else {
+        "as given"
+    };
     t += &format!(
-        "  render            {:8.2} s\n  sensor            {:8.2} s (exposure {:.4} s)\n  ISP float / fixed {:8.1} / {:.1} ms\n",
-        r.render_s, r.sensor_s, r.exposure_s, r.isp_total_ms, r.isp_fixed_total_ms
+        "  render            {:8.2} s\n  sensor            {:8.2} s (ISO {}, exposure {:.4} s, {metered})\n  ISP float / fixed {:8.1} / {:.1} ms\n",
+        r.render_s, r.sensor_s, r.iso, r.exposure_s, r.isp_total_ms, r.isp_fixed_total_ms
     );
     t += &format!("  {}\n", noise.to_text());
     t += &format!("  ISP stages: {}\n", stages.join(" -> "));
@@ -846,6 +884,8 @@ mod tests {
             render_s: 0.0,
             sensor_s: 0.0,
             exposure_s: 0.0,
+            iso: 100.0,
+            exposure_metered: true,
             isp_stage_ms: vec![("colour matrix".into(), 1.5)],
             isp_fixed_stage_ms: vec![],
             isp_total_ms: 1.0,

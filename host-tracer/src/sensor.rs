@@ -15,7 +15,9 @@
 //!    electrons, normal with sd `dsnu_e`), the same in every frame of a sensor.
 //! 4. **Temporal noise** from `frame_seed`: photon shot noise (Poisson on signal plus dark
 //!    charge), dark current (`dark_current_e_per_s` x time), read noise (normal, electrons),
-//!    row and column noise (one normal offset per row or column per frame).
+//!    row and column noise (one normal offset per row or column per frame). The mean dark
+//!    charge is taken away again, as a sensor's black-level clamp on its optically black
+//!    pixels (which collect the same dark charge) takes it away: its shot noise stays.
 //! 5. **Saturation** at the full well, then the **ADC**: `round(e x gain) + black`, clipped to
 //!    `[0, 2^bits - 1]`, where `gain = (iso / base_iso) x (white - black) / full_well`
 //!    digital numbers per electron: at base ISO a full well reaches white.
@@ -303,8 +305,9 @@ pub struct SensorConfig {
     pub qe_scale: f64,
     /// Electrons per pixel per lux-second at the sensor (one luminance unit of green response).
     pub sensitivity_e_per_lux_s: f64,
-    /// Exposure time in seconds; `None`: automatic (the 99th percentile of the brightest
-    /// channel at 80 % of the full well).
+    /// Exposure time in seconds; `None`: automatic, metered as a camera meters: the 99th
+    /// percentile of the brightest channel at 80 % of white after the ISO gain (80 % of the
+    /// full well at base ISO; a higher ISO shortens the exposure in proportion).
     pub exposure_s: Option<f64>,
     /// Noise sources.
     pub noise: NoiseConfig,
@@ -396,26 +399,33 @@ impl SensorConfig {
         (self.iso / self.base_iso) * (self.white_level() - self.black()) as f64 / self.full_well_e
     }
 
-    /// The noise profile this sensor implies (isp-core's [`NoiseProfile`], the DNG
-    /// NoiseProfile tag): with `g` the conversion gain ([`Self::dn_per_electron`]) and `R =
-    /// white - black`, a signal `x = g e / R` of `e` electrons (dark charge included) has
-    /// variance `S x + O` with
+    /// The noise profile this sensor implies over an exposure of `exposure_s` (isp-core's
+    /// [`NoiseProfile`], the DNG NoiseProfile tag): with `g` the conversion gain
+    /// ([`Self::dn_per_electron`]) and `R = white - black`, a signal `x = g e / R` of `e`
+    /// photo-electrons has variance `S x + O` with
     ///
-    /// - `S = g / R` when shot noise is on (photon and dark-charge shot noise are Poisson, so
-    ///   their variance in electrons is their mean), else 0;
-    /// - `O = (g / R)^2 (read^2 + row^2 + column^2) + 1 / (12 R^2)`: read, row and column noise
-    ///   in electrons, and the ADC's rounding (a uniform error of one DN).
+    /// - `S = g / R` when shot noise is on (shot noise is Poisson, so its variance in
+    ///   electrons is its mean), else 0;
+    /// - `O = (g / R)^2 (read^2 + row^2 + column^2 + dark) + 1 / (12 R^2)`: read, row and
+    ///   column noise in electrons, the dark charge's shot noise (`dark` electrons over the
+    ///   exposure, with shot noise on; the clamp takes its mean away), and the ADC's rounding
+    ///   (a uniform error of one DN).
     ///
     /// The same for every colour (one conversion gain). It describes temporal noise, what a
     /// photon-transfer measurement by differencing two frames sees: PRNU and DSNU are fixed
     /// patterns, and clipping at the full well or the ADC's ends is not modelled.
-    pub fn noise_profile(&self) -> Result<NoiseProfile> {
+    pub fn noise_profile(&self, exposure_s: f64) -> Result<NoiseProfile> {
         self.validate()?;
         let range = f64::from(self.white_level() - self.black());
         let unit = self.dn_per_electron() / range;
         let n = &self.noise;
         let scale = if n.shot { unit } else { 0.0 };
-        let electrons2 = n.read_e * n.read_e + n.row_e * n.row_e + n.column_e * n.column_e;
+        let dark = if n.shot {
+            n.dark_current_e_per_s * exposure_s.max(0.0)
+        } else {
+            0.0
+        };
+        let electrons2 = n.read_e * n.read_e + n.row_e * n.row_e + n.column_e * n.column_e + dark;
         let offset = unit * unit * electrons2 + 1.0 / (12.0 * range * range);
         NoiseProfile::uniform(scale as f32, offset as f32).map_err(|source| Error::Isp {
             step: "the sensor's noise profile (a noise as large as the range?)",
@@ -602,7 +612,7 @@ pub fn capture(
     lens: LensGeometry,
     config: &SensorConfig,
 ) -> Result<Capture> {
-    let noise_profile = config.noise_profile()?;
+    config.validate()?;
     if width == 0 || height == 0 || camera_rgb.len() != width * height * 3 {
         return Err(Error::out_of_range(
             "sensor radiance values",
@@ -676,7 +686,7 @@ pub fn capture(
             } else {
                 mean
             };
-            e = e.min(config.full_well_e);
+            e = e.min(config.full_well_e) - dark_e;
             if noise.read_e > 0.0 {
                 e += noise.read_e * pixel::normal(&mut temporal);
             }
@@ -684,6 +694,7 @@ pub fn capture(
             raw[i] = pixel::adc(e, gain, black, white);
         }
     }
+    let noise_profile = config.noise_profile(exposure_s)?;
     let defects = inject_defects(&mut raw, width, height, config, black, white);
     let raw = RawImage::new(
         width,
@@ -706,7 +717,7 @@ pub fn capture(
 }
 
 /// The exposure time that puts the 99th percentile of the brightest channel (after shading)
-/// at 80 % of the full well.
+/// at 80 % of white: 80 % of the full well times `base_iso / iso` (at most the full well).
 fn auto_exposure(
     camera_rgb: &[f32],
     width: usize,
@@ -734,7 +745,8 @@ fn auto_exposure(
             problem: "the frame is black, so automatic exposure has nothing to meter; give an exposure time",
         });
     }
-    Ok(0.8 * config.full_well_e / per_second)
+    let target_e = 0.8 * config.full_well_e * (config.base_iso / config.iso).min(1.0);
+    Ok(target_e / per_second)
 }
 
 fn inject_defects(
@@ -815,7 +827,8 @@ mod tests {
     /// The profile the sensor states matches the temporal variance measured on flat frames
     /// (half the variance of the difference of two frames of one sensor, which cancels PRNU and
     /// DSNU as a photon-transfer measurement does) within 10 %, from a dark frame to near
-    /// white, at ISO 100 and 1600, with every noise source on.
+    /// white, at ISO 100 and 1600, short and long (dark-current) exposures, with every noise
+    /// source on; the black clamp leaves a dark frame at black.
     #[test]
     fn noise_profile_matches_the_variance_of_flat_frames() {
         let lens = LensGeometry {
@@ -824,17 +837,18 @@ mod tests {
             sensor_mm: [36.0, 24.0],
         };
         let (w, h) = (128, 128);
-        for iso in [100.0, 1600.0] {
+        // A long exposure collects 20 dark electrons, whose shot noise outweighs read noise.
+        for (iso, exposure_s) in [(100.0, 0.01), (1600.0, 0.01), (100.0, 4.0), (1600.0, 4.0)] {
             let mut config = SensorConfig::realistic();
             config.shading = ShadingConfig::default();
             config.iso = iso;
-            config.exposure_s = Some(0.01);
-            let profile = config.noise_profile().unwrap();
+            config.exposure_s = Some(exposure_s);
+            let profile = config.noise_profile(exposure_s).unwrap();
             let range = f64::from(config.white_level() - config.black());
             let e_per_radiance = pixel::signal_electrons(
                 1.0,
                 lens.f_number,
-                0.01,
+                exposure_s,
                 config.sensitivity_e_per_lux_s * config.qe_scale,
             );
             for x in [0.0, 0.01, 0.05, 0.2, 0.5, 0.8] {
@@ -859,6 +873,9 @@ mod tests {
                     .collect();
                 let n = pairs.len() as f64;
                 let mean = pairs.iter().map(|(p, q)| p + q).sum::<f64>() / (2.0 * n);
+                if x == 0.0 {
+                    assert!(mean.abs() < 0.2 / range, "dark frame mean {mean}");
+                }
                 let d_mean = pairs.iter().map(|(p, q)| p - q).sum::<f64>() / n;
                 let measured = pairs
                     .iter()
@@ -868,14 +885,14 @@ mod tests {
                 let stated = f64::from(profile.variance(CfaColour::Green, mean as f32));
                 assert!(
                     (measured / stated - 1.0).abs() < 0.10,
-                    "ISO {iso}, x {x} (measured mean {mean:.4}): variance {measured:.3e}, profile {stated:.3e}"
+                    "ISO {iso}, {exposure_s} s, x {x} (measured mean {mean:.4}): variance {measured:.3e}, profile {stated:.3e}"
                 );
             }
         }
         // Without shot noise the profile has no signal term.
         let mut quiet = SensorConfig::realistic();
         quiet.noise.shot = false;
-        assert_eq!(quiet.noise_profile().unwrap().scale(), [0.0; 3]);
+        assert_eq!(quiet.noise_profile(1.0).unwrap().scale(), [0.0; 3]);
     }
 
     #[test]

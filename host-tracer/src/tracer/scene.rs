@@ -261,6 +261,37 @@ impl SceneDesc {
         Ok(relit)
     }
 
+    /// The colour of an RGB scene's light, linear RGB: the emitters' radiance weighted by
+    /// their area, else the environment's; `None` when a light is spectral or there is none
+    /// (a scene lit by several colours gets their area-weighted mix, what a grey-world
+    /// white balance would see of the lights themselves).
+    pub fn light_rgb(&self) -> Option<[f32; 3]> {
+        let mut sum = [0.0f64; 3];
+        for shape in &self.shapes {
+            match &shape.emission {
+                None => {}
+                Some(Colour::Rgb(rgb)) => {
+                    let area: f64 = shape.geometry.iter().map(|g| f64::from(g.area())).sum();
+                    for (s, v) in sum.iter_mut().zip(rgb) {
+                        *s += area * f64::from(*v);
+                    }
+                }
+                Some(Colour::Bands(_)) => return None,
+            }
+        }
+        if sum == [0.0; 3] {
+            match &self.environment {
+                Some(Colour::Rgb(rgb)) => sum = rgb.map(f64::from),
+                _ => return None,
+            }
+        }
+        let light = sum.map(|v| v as f32);
+        light
+            .iter()
+            .all(|v| v.is_finite() && *v > 0.0)
+            .then_some(light)
+    }
+
     /// Whether any colour is spectral, so the scene renders in bands.
     pub fn is_spectral(&self) -> bool {
         self.materials.iter().any(|(_, c)| c.is_spectral())
