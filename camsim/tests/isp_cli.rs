@@ -1088,7 +1088,14 @@ fn isp_resolves_and_reports_the_noise_profile() {
         v["noise_profile"].clone()
     };
     // A plain mosaic: estimated, near the truth.
-    let pgm_args = ["--bits", "12", "--black-level", "256", "--white-level", "4095"];
+    let pgm_args = [
+        "--bits",
+        "12",
+        "--black-level",
+        "256",
+        "--white-level",
+        "4095",
+    ];
     let estimated = json(&pgm_args, &pgm);
     assert_eq!(estimated["source"], "estimated");
     let s = estimated["scale"][1].as_f64().unwrap();
@@ -1111,7 +1118,10 @@ fn isp_resolves_and_reports_the_noise_profile() {
         "--output",
         out.to_str().unwrap(),
     ]);
-    assert!(ok && text.contains("from the file's NoiseProfile tag"), "{text}");
+    assert!(
+        ok && text.contains("from the file's NoiseProfile tag"),
+        "{text}"
+    );
     // From a config file, and refusals.
     let config = dir.join("noise.toml");
     std::fs::write(&config, "noise-profile = [0.002, 3e-6]\n").unwrap();

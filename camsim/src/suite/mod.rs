@@ -589,7 +589,7 @@ fn demosaic_suite(
             points.extend(reply.rows);
             peer_versions = Some(reply.versions);
         }
-        Err(why) if !settings.require_peers => *peers_skipped = Some(why),
+        Err(why) if !settings.require_peers => *peers_skipped = Some(why.to_string()),
         Err(why) => return Err(Error::Message(format!("the peers did not run: {why}"))),
     }
     let (mut learned_versions, mut learned_skipped) = (None, None);
@@ -636,7 +636,7 @@ fn run_python<R: serde::de::DeserializeOwned>(
     python: &Path,
     script: &str,
     request: &serde_json::Value,
-) -> Result<R, String> {
+) -> Result<R, PeerError> {
     python_present(python)?;
     let output = std::process::Command::new(python)
         .arg("-c")
@@ -644,26 +644,90 @@ fn run_python<R: serde::de::DeserializeOwned>(
         .arg(request.to_string())
         .stderr(std::process::Stdio::inherit())
         .output()
-        .map_err(|e| format!("running {}: {e}", python.display()))?;
+        .map_err(|source| PeerError::Io {
+            what: format!("running {}", python.display()),
+            source,
+        })?;
     if !output.status.success() {
-        return Err(format!(
-            "the peer script failed ({}); its error is above",
-            output.status
-        ));
+        return Err(PeerError::Failed {
+            script: "the peer script",
+            detail: format!("{}; its error is above", output.status),
+        });
     }
-    serde_json::from_slice(&output.stdout).map_err(|e| format!("the peer script's reply: {e}"))
+    serde_json::from_slice(&output.stdout).map_err(|e| PeerError::Reply {
+        script: "the peer script",
+        problem: e.to_string(),
+    })
+}
+
+/// Why a peer (a Python script run with the oracle's interpreter) gave no figures.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum PeerError {
+    /// The interpreter is not there.
+    NoPython {
+        /// Where it was looked for.
+        python: PathBuf,
+    },
+    /// A file or process operation failed.
+    Io {
+        /// What was being done, e.g. `running .venv/bin/python`.
+        what: String,
+        /// The system's reason.
+        source: std::io::Error,
+    },
+    /// The script ran and failed.
+    Failed {
+        /// Which script.
+        script: &'static str,
+        /// Its exit status or last line of error.
+        detail: String,
+    },
+    /// The script's reply could not be used.
+    Reply {
+        /// Which script.
+        script: &'static str,
+        /// What was wrong with it.
+        problem: String,
+    },
+    /// The peer has no counterpart for this input.
+    NotApplicable(&'static str),
+}
+
+impl std::fmt::Display for PeerError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::NoPython { python } => write!(
+                f,
+                "no Python at {} (scripts/test-all.sh creates the oracle's .venv; or set \
+                 CAMSIM_ORACLE_PYTHON)",
+                python.display()
+            ),
+            Self::Io { what, source } => write!(f, "{what}: {source}"),
+            Self::Failed { script, detail } => write!(f, "{script} failed: {detail}"),
+            Self::Reply { script, problem } => write!(f, "{script}'s reply: {problem}"),
+            Self::NotApplicable(why) => f.write_str(why),
+        }
+    }
+}
+
+impl std::error::Error for PeerError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            Self::Io { source, .. } => Some(source),
+            _ => None,
+        }
+    }
 }
 
 /// Whether `python` exists, or why the peers cannot run.
-fn python_present(python: &Path) -> Result<(), String> {
+fn python_present(python: &Path) -> Result<(), PeerError> {
     if python.exists() {
         Ok(())
     } else {
-        Err(format!(
-            "no Python at {} (scripts/test-all.sh creates the oracle's .venv; or set \
-             CAMSIM_ORACLE_PYTHON)",
-            python.display()
-        ))
+        Err(PeerError::NoPython {
+            python: python.to_owned(),
+        })
     }
 }
 
@@ -796,7 +860,7 @@ fn pipeline_suite(
                 psnr_db: Some(score(&image)),
             }),
             Err(why) if !settings.require_peers => {
-                peers_skipped.get_or_insert(why);
+                peers_skipped.get_or_insert(why.to_string());
             }
             Err(why) => {
                 return Err(Error::Message(format!(
@@ -961,7 +1025,9 @@ fn fixed_float_suite(
                 isp_core::pipeline::Input::Mosaic(raw) => {
                     opencv_pipeline(&settings.python, raw, &p.config, threads, repeats, None)
                 }
-                isp_core::pipeline::Input::Linear(_) => Err("a linear frame".into()),
+                isp_core::pipeline::Input::Linear(_) => {
+                    Err(PeerError::NotApplicable("a linear frame"))
+                }
             };
             Ok((ms, opencv))
         })?;
@@ -1136,7 +1202,7 @@ fn render_suite(
             mitsuba = Some(reply.version);
         }
         Err(why) if !settings.require_peers => {
-            peers_skipped.get_or_insert(why);
+            peers_skipped.get_or_insert(why.to_string());
         }
         Err(why) => {
             return Err(Error::Message(format!(
@@ -1389,7 +1455,7 @@ pub fn opencv_pipeline(
     threads: usize,
     repeats: u32,
     output: Option<&mut Vec<u8>>,
-) -> Result<f64, String> {
+) -> Result<f64, PeerError> {
     python_present(python)?;
     let mosaic = raw.mosaic();
     let (w, h) = (mosaic.width(), mosaic.height());
@@ -1399,7 +1465,10 @@ pub fn opencv_pipeline(
         .collect();
     let stem = std::env::temp_dir().join(format!("camsim-isp-opencv-{}", std::process::id()));
     let (frame, image) = (stem.with_extension("u16"), stem.with_extension("rgb"));
-    std::fs::write(&frame, &bytes).map_err(|e| format!("writing {}: {e}", frame.display()))?;
+    std::fs::write(&frame, &bytes).map_err(|source| PeerError::Io {
+        what: format!("writing {}", frame.display()),
+        source,
+    })?;
     let pattern = format!("{:?}", mosaic.pattern()).to_uppercase();
     let request = serde_json::json!({
         "frame": frame.display().to_string(),
@@ -1421,30 +1490,43 @@ pub fn opencv_pipeline(
         .arg(request.to_string())
         .output();
     let _ = std::fs::remove_file(&frame);
-    let result = result.map_err(|e| format!("running {}: {e}", python.display()))?;
+    let result = result.map_err(|source| PeerError::Io {
+        what: format!("running {}", python.display()),
+        source,
+    })?;
+    const SCRIPT: &str = "the OpenCV script";
     if !result.status.success() {
         let _ = std::fs::remove_file(&image);
         let stderr = String::from_utf8_lossy(&result.stderr);
         let last = stderr.lines().last().unwrap_or("no message");
-        return Err(format!("the OpenCV script failed: {last}"));
+        return Err(PeerError::Failed {
+            script: SCRIPT,
+            detail: last.to_owned(),
+        });
     }
     if let Some(out) = output {
         let read = std::fs::read(&image);
         let _ = std::fs::remove_file(&image);
-        *out = read.map_err(|e| format!("reading {}: {e}", image.display()))?;
+        *out = read.map_err(|source| PeerError::Io {
+            what: format!("reading {}", image.display()),
+            source,
+        })?;
         if out.len() != 3 * w * h {
-            return Err(format!(
-                "the OpenCV script wrote {} bytes, not {}",
-                out.len(),
-                3 * w * h
-            ));
+            return Err(PeerError::Reply {
+                script: SCRIPT,
+                problem: format!("{} bytes written, not {}", out.len(), 3 * w * h),
+            });
         }
     }
-    let reply: serde_json::Value = serde_json::from_slice(&result.stdout)
-        .map_err(|e| format!("the OpenCV script's reply: {e}"))?;
-    reply["ms_per_frame"]
-        .as_f64()
-        .ok_or_else(|| "the OpenCV script gave no time".into())
+    let reply: serde_json::Value =
+        serde_json::from_slice(&result.stdout).map_err(|e| PeerError::Reply {
+            script: SCRIPT,
+            problem: e.to_string(),
+        })?;
+    reply["ms_per_frame"].as_f64().ok_or(PeerError::Reply {
+        script: SCRIPT,
+        problem: "no time given".into(),
+    })
 }
 
 /// The illuminants of the vendored spectra (`data/spectra/illuminants.csv`).

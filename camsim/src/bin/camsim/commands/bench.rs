@@ -260,7 +260,7 @@ fn bench_isp(args: &BenchIspArgs) -> Result<String, Error> {
                     }),
                     None,
                 ),
-                Err(why) => (None, Some(why)),
+                Err(why) => (None, Some(why.to_string())),
             },
             Input::Linear(_) => (None, Some("the input is linear (no Bayer stage)".into())),
         };
@@ -336,6 +336,17 @@ fn run_suites(args: &BenchArgs) -> Result<String, Error> {
             args.out.display()
         ));
     }
+    // The README quotes ratios against the peers: refuse now, not after the run, when they
+    // cannot be measured.
+    let python = oracle_python();
+    if args.readme.is_some() && !python.exists() {
+        return Err(Error::Message(format!(
+            "--readme needs the oracle environment for the peers the README's ratios are \
+             against, and there is no Python at {} (scripts/test-all.sh creates .venv; or set \
+             CAMSIM_ORACLE_PYTHON); leave --readme out to chart without them",
+            python.display()
+        )));
+    }
     let command = std::iter::once("camsim".to_string())
         .chain(std::env::args().skip(1))
         .collect::<Vec<_>>()
@@ -381,6 +392,13 @@ fn update_readme(args: &BenchArgs, results: &suite::SuiteResults) -> Result<(), 
     let Some(path) = &args.readme else {
         return Ok(());
     };
+    if let Some(why) = &results.peers_skipped {
+        return Err(Error::Message(format!(
+            "{}: not updated, as the peers its ratios are against did not run ({why}); the \
+             charts are written",
+            path.display()
+        )));
+    }
     let text = std::fs::read_to_string(path).map_err(|e| raw_formats::FormatError::io(path, e))?;
     let updated = suite::update_readme(&text, results).map_err(|e| e.in_file(path))?;
     std::fs::write(path, updated).map_err(|e| raw_formats::FormatError::io(path, e))?;
