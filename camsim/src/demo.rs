@@ -529,7 +529,7 @@ pub fn capture(
         None => ([0.0; 3], [1.0; 3]),
     };
     let illuminant = match rgb_light {
-        Some(l) if !spectral && !(l[0] == l[1] && l[1] == l[2]) => format!(
+        Some(l) if !spectral && (l[0] != l[1] || l[1] != l[2]) => format!(
             "the scene's light, linear sRGB {:.3} {:.3} {:.3}",
             l[0] / l[1],
             1.0,
