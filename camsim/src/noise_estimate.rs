@@ -15,7 +15,7 @@
 //!    pixels) give a level and a variance; a cell with a sample at white or at 0 is clipped and
 //!    left out.
 //! 2. **Level sets and a low quantile.** Cells are sorted by level and split into sets of
-//!    [`PER_SET`]. Texture only adds to a cell's variance, so a set's noise is its 5 %
+//!    128. Texture only adds to a cell's variance, so a set's noise is its 5 %
 //!    quantile of cell variances over that quantile's ratio to the mean on a flat cell
 //!    (chi-square with 16 degrees of freedom; Wilson and Hilferty's approximation). Each cell's
 //!    variance is taken relative to the model at its own level (from the previous fit), so the
