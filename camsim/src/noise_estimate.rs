@@ -67,9 +67,9 @@ struct Cell {
 }
 
 /// Estimates the noise profile of a `width` x `height` mosaic of `pattern` (`samples` row-major,
-/// `black` per 2x2 CFA position, `white` the clip level). Fails when a colour has too few
-/// unclipped cells for three level sets (a frame under about 200x200 pixels, or one clipped
-/// throughout).
+/// `black` per 2x2 CFA position, `white` the clip level). The same profile for every colour
+/// (see the module docs). Fails when the frame has too few unclipped cells for three level sets
+/// (a frame under about 200x200 pixels, or one clipped throughout).
 pub fn estimate(
     samples: &[u16],
     width: usize,
