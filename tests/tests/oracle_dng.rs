@@ -104,7 +104,15 @@ proptest! {
                 ..DngColour::default()
             },
             framing: Default::default(),
-            processing: Default::default(),
+            // A NoiseProfile (DOUBLEs, one pair or one per colour) must not upset LibRaw.
+            processing: raw_formats::dng::Processing {
+                noise_profile: if two_matrices {
+                    isp_core::noise::NoiseProfile::new([3e-3, 3.2e-3, 3.5e-3], [1e-6, 2e-6, 3e-6]).ok()
+                } else {
+                    isp_core::noise::NoiseProfile::uniform(8e-4, 6e-7).ok()
+                },
+                ..Default::default()
+            },
         };
         let path = std::env::temp_dir().join(format!("camsim-oracle-{}-{seed}.dng", std::process::id()));
         // The raw in IFD 0, or in a SubIFD behind an RGB preview as Adobe's converter writes.
