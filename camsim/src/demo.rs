@@ -520,16 +520,27 @@ pub fn capture(
     let to_xyz = calibration.camera_to_xyz(6504.0)?;
     let mut awb = wb::estimate(&raw_frame, args.awb, &to_xyz)?;
     awb.cct_k = calibration.cct_of_neutral(awb.neutral)?;
-    // An RGB scene's light is its emitters' colour in linear sRGB, which is camera RGB on the
-    // RGB path: the neutral a perfect AWB finds.
-    let rgb_light = (!spectral).then(|| scene.light_rgb()).flatten();
-    let (_, true_neutral) = match rgb_light {
-        _ if spectral => calibrate::illuminant_colour(&illuminant, &response)?,
-        Some(light) => ([0.0; 3], light.map(|v| f64::from(v / light[1]))),
-        None => ([0.0; 3], [1.0; 3]),
+    // The scene's light as (its white in XYZ, its colour in camera RGB): a named illuminant's
+    // spectrum through the observer and the camera, or an RGB scene's emitters' colour in linear
+    // sRGB, which is camera RGB on the RGB path. `None`: an RGB scene with no light of its own.
+    let light: Option<([f64; 3], [f64; 3])> = if spectral {
+        let bands = illuminant_bands(&illuminant)?;
+        Some((bands_xyz(&bands), response.of_bands(&bands).map(f64::from)))
+    } else {
+        scene.light_rgb().map(|l| {
+            let rgb = l.map(f64::from);
+            (colour::mat3_mul_vec(&colour::LINEAR_SRGB_TO_XYZ, rgb), rgb)
+        })
     };
-    let illuminant = match rgb_light {
-        Some(l) if !spectral && (l[0] != l[1] || l[1] != l[2]) => format!(
+    if light.is_some_and(|(xyz, rgb)| !(xyz[1] > 0.0 && rgb[1] > 0.0)) {
+        return Err(Error::Message(format!(
+            "the scene's light ({illuminant}) has no light in 400..700 nm"
+        )));
+    }
+    // The neutral a perfect AWB finds.
+    let true_neutral = light.map_or([1.0; 3], |(_, rgb)| rgb.map(|v| v / rgb[1]));
+    let illuminant = match light {
+        Some((_, l)) if !spectral && (l[0] != l[1] || l[1] != l[2]) => format!(
             "the scene's light, linear sRGB {:.3} {:.3} {:.3}",
             l[0] / l[1],
             1.0,
@@ -543,43 +554,23 @@ pub fn capture(
         .map_err(|e| Error::in_stage("colour matrix", e))?
         .ccm;
 
-    // The light's white, XYZ: a named illuminant's, or an RGB scene's light through sRGB's
-    // primaries (camera RGB is linear sRGB there).
-    let light_xyz = match rgb_light {
-        _ if spectral => Some(bands_xyz(&illuminant_bands(&illuminant)?)),
-        Some(l) => Some(colour::mat3_mul_vec(
-            &colour::LINEAR_SRGB_TO_XYZ,
-            l.map(f64::from),
-        )),
-        None => None,
-    };
-    // The truth's scale: a neutral under the scene illuminant with camera green g (in ISP
-    // units) comes out of a perfect ISP with luminance g.
-    let green_per_luminance = match (rgb_light, light_xyz) {
-        _ if spectral => {
-            let bands = illuminant_bands(&illuminant)?;
-            response.of_bands(&bands)[1] as f64 / bands_xyz(&bands)[1]
-        }
-        (Some(l), Some(xyz)) => f64::from(l[1]) / xyz[1],
-        _ => 1.0,
-    };
+    // The truth's scale: a neutral under the light with camera green g (in ISP units) comes
+    // out of a perfect ISP with luminance g.
+    let green_per_luminance = light.map_or(1.0, |(xyz, rgb)| rgb[1] / xyz[1]);
     let scale = (capture.units_per_radiance * green_per_luminance) as f32;
     // Under another light than D65 the truth is the scene as a white-balanced camera shows
     // it: its colours adapted (Bradford) from the light's white to sRGB's D65 white, which is
-    // what the ISP's white balance and colour matrix aim at. For an RGB scene the light's
-    // white is its colour through sRGB's primaries.
-    let adapt = if (spectral && illuminant != "D65") || (!spectral && light_xyz.is_some()) {
-        let Some(white) = light_xyz else {
-            return Err(Error::Message("the scene's light has no white".into()));
-        };
-        let white = white.map(|v| v / white[1]);
-        let to_d65 = colour::bradford_adaptation(white, colour::xy_to_xyz(colour::D65_XY)?)?;
-        Some(colour::mat3_mul(
-            &colour::XYZ_TO_LINEAR_SRGB,
-            &colour::mat3_mul(&to_d65, &colour::LINEAR_SRGB_TO_XYZ),
-        ))
-    } else {
-        None
+    // what the ISP's white balance and colour matrix aim at.
+    let adapt = match light {
+        Some((white, _)) if !spectral || illuminant != "D65" => {
+            let white = white.map(|v| v / white[1]);
+            let to_d65 = colour::bradford_adaptation(white, colour::xy_to_xyz(colour::D65_XY)?)?;
+            Some(colour::mat3_mul(
+                &colour::XYZ_TO_LINEAR_SRGB,
+                &colour::mat3_mul(&to_d65, &colour::LINEAR_SRGB_TO_XYZ),
+            ))
+        }
+        _ => None,
     };
     let truth_linear: Vec<f32> = match adapt {
         None => image.rgb.iter().map(|v| v * scale).collect(),

@@ -126,9 +126,13 @@ impl Noise {
     /// `{"source": ..., "scale": [R, G, B], "offset": [R, G, B]}`, or with `"reason"` when
     /// there is none.
     pub fn to_json(&self) -> serde_json::Value {
-        match (self.profile(), self) {
-            // Each f32 as the shortest decimal that reads back to it, not its f64 widening.
-            (Some(p), _) => {
+        match self {
+            Noise::Unknown(why) => serde_json::json!({
+                "source": "none",
+                "reason": why,
+            }),
+            Noise::Option(p) | Noise::File(p) | Noise::Estimated(p, _) => {
+                // Each f32 as the shortest decimal that reads back to it, not its f64 widening.
                 let decimal = |v: [f32; 3]| v.map(|x| x.to_string().parse::<f64>().unwrap_or(0.0));
                 serde_json::json!({
                     "source": self.source(),
@@ -136,11 +140,6 @@ impl Noise {
                     "offset": decimal(p.offset()),
                 })
             }
-            (None, Noise::Unknown(why)) => serde_json::json!({
-                "source": "none",
-                "reason": why,
-            }),
-            (None, _) => serde_json::json!({ "source": self.source() }),
         }
     }
 }
@@ -577,12 +576,10 @@ pub fn with_prepared<R>(
         (None, None, Input::Linear(_)) => Noise::Unknown(
             "a linear (demosaiced) frame is not estimated; give --noise-profile".into(),
         ),
-        (None, None, Input::Mosaic(_)) => {
-            match crate::noise_estimate::estimate(&image.samples, w, h, pattern, black, white) {
-                Ok(e) => Noise::Estimated(e.profile, e.sets),
-                Err(e) => Noise::Unknown(format!("{e}; give --noise-profile")),
-            }
-        }
+        (None, None, Input::Mosaic(frame)) => match crate::noise_estimate::estimate(frame) {
+            Ok(e) => Noise::Estimated(e.profile, e.sets),
+            Err(e) => Noise::Unknown(format!("{e}; give --noise-profile")),
+        },
     };
     then(Prepared {
         input: raw,

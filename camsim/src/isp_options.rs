@@ -366,11 +366,7 @@ pub fn distortion(values: Vec<f64>, what: &str) -> Result<[f64; 5]> {
 /// NoiseProfile's order), each in `[0, 1]` and no colour's pair both 0.
 pub fn noise_profile(values: Vec<f64>, what: &str) -> Result<NoiseProfile> {
     let v = count_of(values, what, &[2, 6])?;
-    let pairs: [(f64, f64); 3] = match v.as_slice() {
-        [s, o] => [(*s, *o); 3],
-        v => std::array::from_fn(|c| (v[2 * c], v[2 * c + 1])),
-    };
-    NoiseProfile::new(pairs.map(|p| p.0 as f32), pairs.map(|p| p.1 as f32)).map_err(|_| {
+    NoiseProfile::from_pairs(&v).map_err(|_| {
         OptionError::not_allowed(
             what,
             "S,O or six values S,O per colour R, G, B; each in [0, 1], S and O not both 0",

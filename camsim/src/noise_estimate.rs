@@ -32,8 +32,9 @@
 //! stands above the image's fine structure, and an overestimate of `S` for faint noise over
 //! strong texture.
 
+use isp_core::frame::RawFrame;
 use isp_core::noise::NoiseProfile;
-use isp_core::{CfaColour, CfaPattern};
+use isp_core::CfaColour;
 
 use crate::error::Error;
 
@@ -66,34 +67,21 @@ struct Cell {
     variance: f64,
 }
 
-/// Estimates the noise profile of a `width` x `height` mosaic of `pattern` (`samples` row-major,
-/// `black` per 2x2 CFA position, `white` the clip level). The same profile for every colour
-/// (see the module docs). Fails when the frame has too few unclipped cells for three level sets
-/// (a frame under about 200x200 pixels, or one clipped throughout).
-pub fn estimate(
-    samples: &[u16],
-    width: usize,
-    height: usize,
-    pattern: CfaPattern,
-    black: [u16; 4],
-    white: u16,
-) -> Result<NoiseEstimate, Error> {
-    if samples.len() != width.saturating_mul(height) || black.iter().any(|b| *b >= white) {
-        return Err(Error::NoiseEstimate {
-            reason: "the frame's size or levels do not fit its samples",
-        });
-    }
-    let mut cells = green_cells(samples, width, height, pattern, black, white);
+/// Estimates the noise profile of `raw` (its pattern, per-position black levels and white
+/// level as the pipeline will develop it). The same profile for every colour (see the module
+/// docs). Fails when the frame has too few unclipped cells for three level sets (a frame under
+/// about 200x200 pixels, or one clipped throughout).
+pub fn estimate(raw: &RawFrame<'_>) -> Result<NoiseEstimate, Error> {
+    let mut cells = green_cells(raw);
     let Some(((s, o), sets)) = fit_cells(&mut cells) else {
         return Err(Error::NoiseEstimate {
             reason: "too few unclipped areas for three level sets (a frame too small, or clipped throughout)",
         });
     };
-    let mut offset = o as f32;
     // A fit of exactly zero noise (a synthetic frame without any) has no profile; keep the
-    // quantisation floor of the file's range instead.
-    let floor = 1.0 / (12.0 * f64::from(white - black[0]).powi(2));
-    offset = offset.max(floor as f32);
+    // quantisation floor of the range instead.
+    let range = f64::from(raw.white_level() - raw.black_at(0, 0));
+    let offset = (o as f32).max((1.0 / (12.0 * range * range)) as f32);
     let profile = NoiseProfile::uniform(s as f32, offset).map_err(|_| Error::NoiseEstimate {
         reason: "the fit is outside a noise profile's range (noise as large as the signal)",
     })?;
@@ -106,32 +94,27 @@ pub fn estimate(
 /// has the noise's variance and no response to a linear gradient: a second difference at a
 /// one-pixel step, so little of the image's structure. These diamonds share no pixel and
 /// cover every green once. A cell is the 16 diamonds of a 16x8-pixel area.
-fn green_cells(
-    samples: &[u16],
-    width: usize,
-    height: usize,
-    pattern: CfaPattern,
-    black: [u16; 4],
-    white: u16,
-) -> Vec<Cell> {
+fn green_cells(raw: &RawFrame<'_>) -> Vec<Cell> {
+    let mosaic = raw.mosaic();
+    let pattern = mosaic.pattern();
     let Some(site) = (0..4).find(|p| pattern.colour_at(p % 2, p / 2) != CfaColour::Green) else {
         return Vec::new();
     };
     let (px, py) = (site % 2, site / 2);
-    let unit = |x: usize, y: usize| {
-        let b = black[(y % 2) * 2 + x % 2];
-        (f64::from(samples[y * width + x]) - f64::from(b)) / f64::from(white - b)
-    };
-    let clipped = |x: usize, y: usize| {
-        let s = samples[y * width + x];
-        s >= white || s == 0
+    let white = raw.white_level();
+    // A sample at white or at 0 is clipped (and one outside the frame, which no cell reads,
+    // would read as 0).
+    let sample = |x: usize, y: usize| mosaic.get(x, y).filter(|s| *s < white && *s > 0);
+    let unit = |x: usize, y: usize, s: u16| {
+        let b = raw.black_at(x, y);
+        (f64::from(s) - f64::from(b)) / f64::from(white - b)
     };
     // A cell: raw columns 16u + 2..16u + 18 and rows 8v + 2..8v + 10 (a margin of 2 keeps every
     // diamond inside the frame), the diamonds at its sites of position (px, py) with block
     // indices of even sum.
     let mut out = Vec::new();
-    let cells_w = width.saturating_sub(4) / 16;
-    let cells_h = height.saturating_sub(4) / 8;
+    let cells_w = mosaic.width().saturating_sub(4) / 16;
+    let cells_h = mosaic.height().saturating_sub(4) / 8;
     for cv in 0..cells_h {
         'cell: for cu in 0..cells_w {
             let (mut detail2, mut sum, mut n) = (0.0, 0.0, 0usize);
@@ -141,11 +124,18 @@ fn green_cells(
                     if (x / 2 + y / 2) % 2 == 1 {
                         continue;
                     }
-                    let around = [(x, y - 1), (x, y + 1), (x + 1, y), (x - 1, y)];
-                    if around.iter().any(|&(x, y)| clipped(x, y)) {
-                        continue 'cell;
+                    let mut around = [0.0; 4];
+                    for (v, (x, y)) in
+                        around
+                            .iter_mut()
+                            .zip([(x, y - 1), (x, y + 1), (x + 1, y), (x - 1, y)])
+                    {
+                        let Some(s) = sample(x, y) else {
+                            continue 'cell;
+                        };
+                        *v = unit(x, y, s);
                     }
-                    let [n_, s_, e_, w_] = around.map(|(x, y)| unit(x, y));
+                    let [n_, s_, e_, w_] = around;
                     let d = (n_ + s_ - e_ - w_) / 2.0;
                     detail2 += d * d;
                     sum += n_ + s_ + e_ + w_;
@@ -161,7 +151,7 @@ fn green_cells(
     out
 }
 
-/// `(S, O)` from the cells of one colour: sorted by level and split into level sets of
+/// `(S, O)` from the green cells: sorted by level and split into level sets of
 /// [`PER_SET`]; each set's noise is its [`QUANTILE`] cell variance over that quantile's
 /// expected ratio to the mean on a flat cell (chi-square with `CELL^2` degrees of freedom over
 /// its mean, by Wilson and Hilferty's cube-root approximation). A set spans a range of levels,
@@ -290,6 +280,7 @@ fn weighted_fit(points: &[(f64, f64, f64)], used: &[bool]) -> (f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use isp_core::CfaPattern;
 
     #[test]
     fn the_weighted_fit_recovers_a_line() {
@@ -328,7 +319,8 @@ mod tests {
                     (256.0 + noisy * 3839.0).round().clamp(0.0, 4095.0) as u16
                 })
                 .collect();
-            let e = estimate(&raw, w, h, CfaPattern::Rggb, [256; 4], 4095).unwrap();
+            let frame = RawFrame::new(&raw, w, h, w, 12, CfaPattern::Rggb, [256; 4], 4095).unwrap();
+            let e = estimate(&frame).unwrap();
             for c in 0..3 {
                 let (s, o) = (e.profile.scale()[c] as f64, e.profile.offset()[c] as f64);
                 assert!(
@@ -342,8 +334,10 @@ mod tests {
     #[test]
     fn a_small_or_mismatched_frame_is_refused() {
         let small = vec![300u16; 40 * 40];
-        assert!(estimate(&small, 40, 40, CfaPattern::Rggb, [256; 4], 4095).is_err());
-        assert!(estimate(&small, 41, 40, CfaPattern::Rggb, [256; 4], 4095).is_err());
-        assert!(estimate(&small, 40, 40, CfaPattern::Rggb, [4095; 4], 4095).is_err());
+        let frame = |w, black| RawFrame::new(&small, w, 40, w, 12, CfaPattern::Rggb, black, 4095);
+        assert!(estimate(&frame(40, [256; 4]).unwrap()).is_err());
+        // A mismatched size or levels cannot reach the estimate: the frame refuses them.
+        assert!(frame(41, [256; 4]).is_err());
+        assert!(frame(40, [4095; 4]).is_err());
     }
 }

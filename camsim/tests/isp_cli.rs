@@ -1072,18 +1072,21 @@ fn isp_resolves_and_reports_the_noise_profile() {
     .write(&dng)
     .unwrap();
     let out = dir.join("out.png");
-    let json = |extra: &[&str], input: &std::path::Path| {
+    // `camsim isp` on `input` with `extra` flags: success, stdout, stderr.
+    let isp = |input: &std::path::Path, extra: &[&str]| {
         let mut args = vec![
             "isp",
             "--input",
             input.to_str().unwrap(),
             "--output",
             out.to_str().unwrap(),
-            "--json",
         ];
         args.extend_from_slice(extra);
-        let (ok, stdout, stderr) = camsim(&args);
-        assert!(ok, "{args:?}: {stderr}");
+        camsim(&args)
+    };
+    let json = |extra: &[&str], input: &std::path::Path| {
+        let (ok, stdout, stderr) = isp(input, &[extra, &["--json"]].concat());
+        assert!(ok, "{extra:?}: {stderr}");
         let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
         v["noise_profile"].clone()
     };
@@ -1111,13 +1114,7 @@ fn isp_resolves_and_reports_the_noise_profile() {
     assert_eq!(given["source"], "option");
     assert_eq!(given["scale"][2].as_f64(), Some(0.003));
     // The text report says the same.
-    let (ok, text, _) = camsim(&[
-        "isp",
-        "--input",
-        dng.to_str().unwrap(),
-        "--output",
-        out.to_str().unwrap(),
-    ]);
+    let (ok, text, _) = isp(&dng, &[]);
     assert!(
         ok && text.contains("from the file's NoiseProfile tag"),
         "{text}"
@@ -1128,27 +1125,11 @@ fn isp_resolves_and_reports_the_noise_profile() {
     let from_config = json(&["--config", config.to_str().unwrap()], &dng);
     assert_eq!(from_config["scale"][1].as_f64(), Some(0.002));
     for bad in ["0.001", "-0.1,0", "0.001,nan", "0,0"] {
-        let (ok, _, stderr) = camsim(&[
-            "isp",
-            "--input",
-            dng.to_str().unwrap(),
-            "--output",
-            out.to_str().unwrap(),
-            "--noise-profile",
-            bad,
-        ]);
+        let (ok, _, stderr) = isp(&dng, &["--noise-profile", bad]);
         assert!(!ok && stderr.contains("--noise-profile"), "{bad}: {stderr}");
     }
     std::fs::write(&config, "noise-profile = [0.002]\n").unwrap();
-    let (ok, _, stderr) = camsim(&[
-        "isp",
-        "--input",
-        dng.to_str().unwrap(),
-        "--output",
-        out.to_str().unwrap(),
-        "--config",
-        config.to_str().unwrap(),
-    ]);
+    let (ok, _, stderr) = isp(&dng, &["--config", config.to_str().unwrap()]);
     assert!(!ok && stderr.contains("noise-profile"), "{stderr}");
     std::fs::remove_dir_all(&dir).ok();
 }

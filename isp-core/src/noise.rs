@@ -68,6 +68,29 @@ impl NoiseProfile {
         Self::new([scale; 3], [offset; 3])
     }
 
+    /// From the values as the DNG NoiseProfile tag lists them: `[S, O]` for every colour, or
+    /// `[S_R, O_R, S_G, O_G, S_B, O_B]`, checked as [`Self::new`] checks them.
+    ///
+    /// ```
+    /// use isp_core::noise::NoiseProfile;
+    /// let p = NoiseProfile::from_pairs(&[0.003, 1e-6]).unwrap();
+    /// assert!(p.is_uniform());
+    /// assert!(NoiseProfile::from_pairs(&[0.003, 1e-6, 0.003]).is_err());
+    /// ```
+    pub fn from_pairs(values: &[f64]) -> Result<Self, IspError> {
+        let pairs: [(f64, f64); 3] = match *values {
+            [s, o] => [(s, o); 3],
+            [sr, or, sg, og, sb, ob] => [(sr, or), (sg, og), (sb, ob)],
+            _ => {
+                return Err(IspError::InvalidParameter {
+                    name: "noise profile",
+                    allowed: "2 values (S, O) or 6 (S, O per colour R, G, B)",
+                })
+            }
+        };
+        Self::new(pairs.map(|p| p.0 as f32), pairs.map(|p| p.1 as f32))
+    }
+
     /// `S` per colour, red, green, blue.
     pub fn scale(&self) -> [f32; 3] {
         self.scale

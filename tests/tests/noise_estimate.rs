@@ -6,6 +6,7 @@ use camsim::noise_estimate::estimate;
 use camsim_tests::dataset;
 use host_tracer::random::Rng;
 use host_tracer::sensor::pixel;
+use isp_core::frame::RawFrame;
 use isp_core::CfaPattern;
 use raw_formats::image as imageio;
 
@@ -113,14 +114,10 @@ fn estimated_profile_is_within_a_quarter_of_the_truth_where_noise_dominates() {
                 let raw = noisy_raw(&rgb, exposure, scale, i as u64);
                 let holds = HOLDS.iter().find(|h| (h.0, h.1) == (scale, exposure));
                 let name = path.file_name().unwrap().to_string_lossy();
-                let e = match estimate(
-                    &raw,
-                    rgb.width,
-                    rgb.height,
-                    CfaPattern::Rggb,
-                    [BLACK; 4],
-                    WHITE,
-                ) {
+                let (w, h) = (rgb.width, rgb.height);
+                let frame =
+                    RawFrame::new(&raw, w, h, w, 12, CfaPattern::Rggb, [BLACK; 4], WHITE).unwrap();
+                let e = match estimate(&frame) {
                     Ok(e) => e,
                     Err(error) => {
                         println!("{name} S {scale} exposure {exposure}: {error}");

@@ -11,6 +11,10 @@ use super::{cfa_codes, ColourCalibration, Crop, Dng, DngColour, Framing, Illumin
 use super::{opcodes, Orientation, Processing, CALIBRATION_TAGS};
 use crate::error::{FormatError, Result};
 use crate::lossless_jpeg;
+
+/// What a NoiseProfile tag may hold.
+const NOISE_PROFILE_VALUES: &str =
+    "2 or 6 values (S, O per colour plane), each finite and in [0, 1], S and O not both 0";
 use crate::raw_image::RawImage;
 
 /// How a strip's or tile's bytes hold its samples.
@@ -691,21 +695,13 @@ impl Tiff<'_> {
             return Ok(None);
         };
         let v = self.numbers(e)?;
-        let refuse = || {
-            FormatError::Unsupported {
-            field: "NoiseProfile",
-            value: format!("{v:?}"),
-            supported: "2 or 6 values (S, O per colour plane), each finite and in [0, 1], S and O not both 0",
-        }
-        };
-        let (scale, offset): ([f64; 3], [f64; 3]) = match v.as_slice() {
-            [s, o] => ([*s; 3], [*o; 3]),
-            [sr, or, sg, og, sb, ob] => ([*sr, *sg, *sb], [*or, *og, *ob]),
-            _ => return Err(refuse()),
-        };
-        NoiseProfile::new(scale.map(|s| s as f32), offset.map(|o| o as f32))
+        NoiseProfile::from_pairs(&v)
             .map(Some)
-            .map_err(|_| refuse())
+            .map_err(|_| FormatError::Unsupported {
+                field: "NoiseProfile",
+                value: format!("{v:?}"),
+                supported: NOISE_PROFILE_VALUES,
+            })
     }
 
     /// The colour tags, which live in IFD 0.

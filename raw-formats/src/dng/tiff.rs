@@ -135,12 +135,12 @@ impl<'a> Tiff<'a> {
                     SRATIONAL => self.u32_at(p)? as i32 as f64 / self.u32_at(p + 4)? as i32 as f64,
                     11 => f32::from_bits(self.u32_at(p)?) as f64,
                     DOUBLE => {
-                        let (a, b) = (self.u32_at(p)? as u64, self.u32_at(p + 4)? as u64);
-                        f64::from_bits(if self.little {
-                            b << 32 | a
+                        let b: [u8; 8] = self.array(p)?;
+                        if self.little {
+                            f64::from_le_bytes(b)
                         } else {
-                            a << 32 | b
-                        })
+                            f64::from_be_bytes(b)
+                        }
                     }
                     _ => return Err(FormatError::FieldType { field_type: kind }),
                 })
