@@ -722,7 +722,7 @@ impl std::error::Error for PeerError {
 
 /// Whether `python` exists, or why the peers cannot run.
 fn python_present(python: &Path) -> Result<(), PeerError> {
-    if python.exists() {
+    if python.is_file() {
         Ok(())
     } else {
         Err(PeerError::NoPython {

@@ -339,7 +339,7 @@ fn run_suites(args: &BenchArgs) -> Result<String, Error> {
     // The README quotes ratios against the peers: refuse now, not after the run, when they
     // cannot be measured.
     let python = oracle_python();
-    if args.readme.is_some() && !python.exists() {
+    if args.readme.is_some() && !python.is_file() {
         return Err(Error::Message(format!(
             "--readme needs the oracle environment for the peers the README's ratios are \
              against, and there is no Python at {} (scripts/test-all.sh creates .venv; or set \
