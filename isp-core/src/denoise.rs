@@ -1,83 +1,478 @@
-//! Noise reduction: a 3x3 joint bilateral filter on linear RGB after demosaicing, small enough
-//! for firmware (three line buffers, no transcendental functions).
+//! Noise reduction driven by the sensor's noise profile: non-local means on the raw mosaic,
+//! packed into its four CFA planes, with every distance measured in units of the noise's own
+//! variance.
 //!
-//! Each neighbour `n` of pixel `p` (reflect-101 at the frame edges) gets the weight
-//! `s_n * max(0, 1 - D / T)` with spatial weights `s` = `[1 2 1; 2 4 2; 1 2 1]`, the colour
-//! distance `D = |R_n - R_p| + |G_n - G_p| + |B_n - B_p|` and the strength `T` (linear units,
-//! `0..=1`): neighbours that differ by `T` or more are ignored, so edges survive while noise
-//! smaller than `T` is averaged away. One weight for all three channels keeps colours together.
-//! The output is `sum(w x) / sum(w)`; the centre always has weight 4. Strength 0 skips the
-//! stage, an exact identity.
+//! The stage runs on the mosaic right after black-level subtraction (so the raw's
+//! [`NoiseProfile`], which is stated there, applies as it is), before shading, gains and
+//! demosaicing (which would correlate the noise and spread it across colours). Each 2x2 CFA
+//! block is one *packed pixel* with four channels, one per CFA position; a packed pixel and
+//! its neighbours at offsets `o` within [`SEARCH_RADIUS`] are compared through the 3x3 packed
+//! patches around them, all four channels together, so one weight moves all colours of a
+//! block together (no chroma noise from planes filtered apart).
 //!
-//! The float path computes exactly this. The fixed path works on `u16` (65535 is 1.0), range
-//! weights in Q12 (`4096 - D * (4096 / T)`, truncated) and rounds the division to nearest.
+//! # Float semantics
+//!
+//! With `x_k(q)` channel `k` of packed pixel `q` (a fraction of white above black, clamped to
+//! `[0, 1]`), reflect-101 at the frame's edges in packed coordinates:
+//!
+//! ```text
+//! m_k(q)  = mean of x_k over the 3x3 packed pixels around q
+//! iv_k(q) = 1 / max(S_k m_k(q) + O_k, Q)        Q = (16 / 65535)^2, a floor
+//! D_o(p)  = sum over q in the 3x3 around p, over k, of (x_k(q + o) - x_k(q))^2 iv_k(q)
+//! u       = max(0, 1 - max(D_o(p) - 72, 0) / (8 * 72 * h^2)),   h = 0.8 * strength
+//! w_o(p)  = u^8                                 (about exp(-max(D - 72, 0) / (72 h^2)))
+//! out_k(p) = sum_o w_o(p) x_k(p + o) / sum_o w_o(p)
+//! ```
+//!
+//! `S_k` and `O_k` are the profile's scale and offset for the colour at CFA position `k`. For
+//! pure noise `D` is about 72 (36 terms of expectation 2), so the weight falls from 1 once
+//! two patches differ by more than noise; the centre always has weight 1. The polynomial
+//! `u^8` stands in for the exponential of the classic method (Buades, Coll and Morel 2005)
+//! and is cheap in integers. Dividing by the variance of each sample's own level is the
+//! classic method under a variance-stabilising transform (Foi's generalised Anscombe) without
+//! the transform's inverse, whose bias in the dark needs a correction; the output is a convex
+//! combination of the input, so flat areas keep their level.
+//!
+//! # Fixed-point path
+//!
+//! Samples are `u16` (65535 = 1.0). `iv` is `2^56 / var_q16` with the variance in `u16^2`
+//! units in Q16 (the floor, 256, keeps it below 2^32 and the variance's whole realistic range
+//! at 14 bits or more), each term `(diff^2 iv) >> 24` (Q16: the product fits 64 bits), `u` in
+//! Q24 from a Q24 reciprocal of the span, `u^8` by three rounded squarings, and the output the
+//! weighted sum divided by the weights' sum, rounded to nearest. The ISO gain and white balance
+//! after the stage multiply what differs from the float path, and sRGB's toe multiplies it
+//! again, so every step keeps bits to spare: within an 8-bit code of the float path.
+//!
+//! Quality, speed and what bounds them: `camsim bench denoise` and `docs/performance.md`.
 
 use crate::demosaic::reflect;
+use crate::noise::NoiseProfile;
+use crate::{CfaPattern, IspError};
 
-/// Spatial weights, row by row.
-const SPATIAL: [[u32; 3]; 3] = [[1, 2, 1], [2, 4, 2], [1, 2, 1]];
+/// How far a packed pixel looks for similar ones (packed pixels, so 4 mosaic pixels).
+pub const SEARCH_RADIUS: usize = 2;
+/// Radius of the patches compared (packed pixels).
+pub const PATCH_RADIUS: usize = 1;
+/// Reflected packed pixels kept either side of each packed row, and packed rows either side
+/// of the one filtered: the search and the patch together.
+pub const PAD: usize = SEARCH_RADIUS + PATCH_RADIUS;
+/// Packed rows one output packed row reads.
+pub const PACKED_ROWS: usize = 2 * PAD + 1;
+/// Largest strength (a multiplier on the profile-driven default, 1).
+pub const MAX_STRENGTH: f32 = 4.0;
+/// `h` at strength 1 (tuned on Kodak and McMaster raws at three noise levels).
+const H_AT_STRENGTH_1: f32 = 0.8;
+/// Terms of a patch distance: 3x3 packed pixels of four channels.
+const TERMS: f32 = 36.0;
+/// The variance floor: a standard deviation of 16 codes of 16 bits (one of 12 bits), far below
+/// any visible noise; it bounds the fixed path's inverse variances.
+const VAR_FLOOR: f64 = 256.0 / (65535.0 * 65535.0);
+/// Fractional bits of the fixed path's weights.
+const WEIGHT_BITS: u32 = 24;
+/// Fractional bits of the fixed path's distances.
+const DISTANCE_BITS: u32 = 16;
+/// [`VAR_FLOOR`] in `u16^2` units, Q16.
+const FLOOR_Q16: u64 = 256 << 16;
 
-/// Columns of the 3x3 window around `x` in a row `w` wide, reflected at the edges.
+/// Elements of one packed row: four channel planes of `packed_width` samples plus [`PAD`]
+/// reflected ones either side.
+pub const fn packed_row_len(packed_width: usize) -> Option<usize> {
+    match packed_width.checked_add(2 * PAD) {
+        Some(p) => p.checked_mul(4),
+        None => None,
+    }
+}
+
+/// Working elements a filtered row needs (of the path's work type: `f32`, or `u64` for the
+/// fixed path): the inverse variances of three packed rows, one row of partial distances, and
+/// the weighted sums.
+pub const fn work_len(packed_width: usize) -> Option<usize> {
+    // iv: 3 rows x 4 channels x (w + 2); vertical sums: w + 2; sums: 4 w; weights: w.
+    let Some(wide) = packed_width.checked_add(2) else {
+        return None;
+    };
+    let Some(iv) = wide.checked_mul(12) else {
+        return None;
+    };
+    let Some(sums) = packed_width.checked_mul(5) else {
+        return None;
+    };
+    match iv.checked_add(wide) {
+        Some(v) => v.checked_add(sums),
+        None => None,
+    }
+}
+
+/// The filter's parameters for the float path.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FloatParams {
+    /// Scale and offset (with the floor) of each CFA position's variance.
+    scale: [f32; 4],
+    offset: [f32; 4],
+    /// `1 / (8 * 72 * h^2)`.
+    inv_span: f32,
+}
+
+/// The filter's parameters for the fixed path.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FixedParams {
+    /// Variance in `u16^2` units, Q16: `max(slope * sum9 + offset, floor)` (`sum9` the 3x3
+    /// sum).
+    slope_q16: [u64; 4],
+    offset_q16: [u64; 4],
+    /// `inv_span * 2^8` in Q24 (the excess is Q16, the weight Q24).
+    inv_span_q24: u64,
+}
+
+/// Checks a strength: in `(0, MAX_STRENGTH]`.
+fn check_strength(strength: f32) -> Result<f32, IspError> {
+    if strength > 0.0 && strength <= MAX_STRENGTH {
+        Ok(strength)
+    } else {
+        Err(IspError::InvalidParameter {
+            name: "denoise strength",
+            allowed: "(0, 4] (1 is the profile's default)",
+        })
+    }
+}
+
+/// The profile's (scale, offset) at each CFA position.
+fn per_position(profile: &NoiseProfile, pattern: CfaPattern) -> [(f64, f64); 4] {
+    let (s, o) = (profile.scale(), profile.offset());
+    core::array::from_fn(|k| {
+        let c = pattern.colour_at(k & 1, k >> 1).index();
+        (f64::from(s[c]), f64::from(o[c]))
+    })
+}
+
+/// `1 / (8 * 72 * h^2)` for a strength.
+fn inv_span(strength: f32) -> f64 {
+    let h = f64::from(H_AT_STRENGTH_1) * f64::from(strength);
+    1.0 / (8.0 * f64::from(TERMS) * 2.0 * h * h)
+}
+
+impl FloatParams {
+    /// The float filter for a raw of `pattern` with `profile`, at `strength` (`(0, 4]`, 1 the
+    /// default).
+    pub fn new(
+        profile: &NoiseProfile,
+        pattern: CfaPattern,
+        strength: f32,
+    ) -> Result<Self, IspError> {
+        let strength = check_strength(strength)?;
+        let p = per_position(profile, pattern);
+        Ok(Self {
+            scale: p.map(|(s, _)| s as f32),
+            offset: p.map(|(_, o)| o as f32),
+            inv_span: inv_span(strength) as f32,
+        })
+    }
+}
+
+impl FixedParams {
+    /// The fixed-point filter for a raw of `pattern` with `profile`, at `strength`.
+    pub fn new(
+        profile: &NoiseProfile,
+        pattern: CfaPattern,
+        strength: f32,
+    ) -> Result<Self, IspError> {
+        let strength = check_strength(strength)?;
+        let p = per_position(profile, pattern);
+        let q16 = 65536.0;
+        Ok(Self {
+            // The variance at a mean of sum9 / 9 u16 units: S * 65535 * sum9 / 9 + O * 65535^2.
+            slope_q16: p.map(|(s, _)| (s * 65535.0 / 9.0 * q16 + 0.5) as u64),
+            offset_q16: p.map(|(_, o)| (o * 65535.0 * 65535.0 * q16 + 0.5) as u64),
+            inv_span_q24: (inv_span(strength) * 256.0 * f64::from(1u32 << 24) + 0.5) as u64,
+        })
+    }
+}
+
+/// Channel `k`'s plane (padded) of a packed row.
 #[inline]
-fn columns(x: usize, w: usize) -> [usize; 3] {
-    [reflect(x as isize - 1, w), x, reflect(x as isize + 1, w)]
+fn plane<T>(row: &[T], k: usize, stride: usize) -> &[T] {
+    &row[k * stride..(k + 1) * stride]
 }
 
-/// Filters pixel `x` of the middle row of `rows` (interleaved RGB, rows above, at and below,
-/// already reflected) with strength `strength` in `(0, 1]`: the float reference.
-pub fn pixel_f32(rows: [&[f32]; 3], x: usize, strength: f32) -> [f32; 3] {
-    let w = rows[1].len() / 3;
-    let cols = columns(x, w);
-    let centre = [rows[1][3 * x], rows[1][3 * x + 1], rows[1][3 * x + 2]];
-    let mut sum = [0.0f32; 3];
-    let mut weight = 0.0f32;
-    for (r, srow) in rows.iter().zip(SPATIAL) {
-        for (&c, s) in cols.iter().zip(srow) {
-            let n = [r[3 * c], r[3 * c + 1], r[3 * c + 2]];
-            let d = (n[0] - centre[0]).abs() + (n[1] - centre[1]).abs() + (n[2] - centre[2]).abs();
-            let range = 1.0 - d / strength;
-            if range > 0.0 {
-                let wgt = s as f32 * range;
-                weight += wgt;
-                for k in 0..3 {
-                    sum[k] += wgt * n[k];
+/// Checks the rows, work and output of a filtered row; returns the padded stride.
+fn check<T, W>(
+    rows: &[&[T]; PACKED_ROWS],
+    packed_width: usize,
+    work: &[W],
+    out: &[T],
+) -> Result<usize, IspError> {
+    let too_small = |needed: Option<usize>, provided: usize| IspError::BufferTooSmall {
+        needed: needed.unwrap_or(usize::MAX),
+        provided,
+    };
+    let row_len = packed_row_len(packed_width);
+    if let Some(short) = rows.iter().find(|r| Some(r.len()) != row_len) {
+        return Err(too_small(row_len, short.len()));
+    }
+    let need = work_len(packed_width);
+    if need.is_none_or(|n| work.len() < n) {
+        return Err(too_small(need, work.len()));
+    }
+    if out.len() != 4 * packed_width {
+        return Err(too_small(Some(4 * packed_width), out.len()));
+    }
+    Ok(packed_width + 2 * PAD)
+}
+
+/// Filters packed row `j` from `rows`, packed rows `j - 3 ..= j + 3` (reflected by the
+/// caller; each [`packed_row_len`] long, reflected [`PAD`] packed pixels either side), into
+/// `out`: four planes of `packed_width` samples, CFA position by position (row-major in the
+/// 2x2 block). The float path.
+pub fn filter_row_f32(
+    rows: [&[f32]; PACKED_ROWS],
+    packed_width: usize,
+    params: &FloatParams,
+    work: &mut [f32],
+    out: &mut [f32],
+) -> Result<(), IspError> {
+    let stride = check(&rows, packed_width, work, out)?;
+    let wide = packed_width + 2;
+    let (iv, rest) = work.split_at_mut(12 * wide);
+    let (vsum, rest) = rest.split_at_mut(wide);
+    let (num, rest) = rest.split_at_mut(4 * packed_width);
+    let den = &mut rest[..packed_width];
+    // Inverse variances of patch rows j - 1 ..= j + 1 (rows 2..=4), columns -1 ..= w.
+    for t in 0..3 {
+        for k in 0..4 {
+            let [up, mid, down] = [t + 1, t + 2, t + 3].map(|r| plane(rows[r], k, stride));
+            let dst = &mut iv[(t * 4 + k) * wide..(t * 4 + k + 1) * wide];
+            for (c, v) in dst.iter_mut().enumerate() {
+                // Padded column c - 1 is index PAD + c - 1; its 3x3 neighbours start one left.
+                let s = PAD + c - 2;
+                let sum: f32 = up[s..s + 3]
+                    .iter()
+                    .chain(&mid[s..s + 3])
+                    .chain(&down[s..s + 3])
+                    .sum();
+                let var = params.scale[k] * (sum * (1.0 / 9.0)) + params.offset[k];
+                *v = 1.0 / var.max(VAR_FLOOR as f32);
+            }
+        }
+    }
+    num.fill(0.0);
+    den.fill(0.0);
+    for dy in -(SEARCH_RADIUS as isize)..=SEARCH_RADIUS as isize {
+        for dx in -(SEARCH_RADIUS as isize)..=SEARCH_RADIUS as isize {
+            // Column sums over the patch rows of the normalised squared differences.
+            vsum.fill(0.0);
+            for t in 0..3 {
+                let (r, n) = (t + 2, (t as isize + 2 + dy) as usize);
+                for k in 0..4 {
+                    let here = &plane(rows[r], k, stride)[PAD - 1..PAD + 1 + packed_width];
+                    let s = (PAD as isize - 1 + dx) as usize;
+                    let there = &plane(rows[n], k, stride)[s..s + wide];
+                    let inv = &iv[(t * 4 + k) * wide..(t * 4 + k + 1) * wide];
+                    for (((v, a), b), i) in vsum.iter_mut().zip(here).zip(there).zip(inv) {
+                        let d = b - a;
+                        *v += d * d * i;
+                    }
+                }
+            }
+            let centre = (PAD as isize + dy) as usize;
+            let s = (PAD as isize + dx) as usize;
+            for (i, dn) in den.iter_mut().enumerate() {
+                let distance = vsum[i] + vsum[i + 1] + vsum[i + 2];
+                let excess = (distance - 2.0 * TERMS).max(0.0);
+                let u = (1.0 - excess * params.inv_span).max(0.0);
+                let u2 = u * u;
+                let u4 = u2 * u2;
+                let w = u4 * u4;
+                *dn += w;
+                for k in 0..4 {
+                    num[k * packed_width + i] += w * plane(rows[centre], k, stride)[s + i];
                 }
             }
         }
     }
-    sum.map(|v| (v / weight).clamp(0.0, 1.0))
+    for k in 0..4 {
+        for (i, o) in out[k * packed_width..(k + 1) * packed_width]
+            .iter_mut()
+            .enumerate()
+        {
+            *o = num[k * packed_width + i] / den[i];
+        }
+    }
+    Ok(())
 }
 
-/// Reciprocal of a strength for [`pixel_u16`]: `round(4096 * 65536 / T)` with `T` in `u16`
-/// units (at least 1).
-pub fn inverse_strength_q16(strength: f32) -> u64 {
-    let t = (strength * 65535.0 + 0.5).max(1.0) as u64;
-    ((4096u64 << 16) + t / 2) / t
-}
-
-/// Filters pixel `x` of the middle row of `rows` (interleaved `u16` RGB) with the strength given
-/// as [`inverse_strength_q16`]: the fixed-point path.
-pub fn pixel_u16(rows: [&[u16]; 3], x: usize, inverse_strength: u64) -> [u16; 3] {
-    let w = rows[1].len() / 3;
-    let cols = columns(x, w);
-    let centre = [rows[1][3 * x], rows[1][3 * x + 1], rows[1][3 * x + 2]];
-    let mut sum = [0u64; 3];
-    let mut weight = 0u64;
-    for (r, srow) in rows.iter().zip(SPATIAL) {
-        for (&c, s) in cols.iter().zip(srow) {
-            let n = [r[3 * c], r[3 * c + 1], r[3 * c + 2]];
-            let d = n[0].abs_diff(centre[0]) as u64
-                + n[1].abs_diff(centre[1]) as u64
-                + n[2].abs_diff(centre[2]) as u64;
-            let penalty = (d * inverse_strength) >> 16;
-            if penalty < 4096 {
-                let wgt = s as u64 * (4096 - penalty);
-                weight += wgt;
-                for k in 0..3 {
-                    sum[k] += wgt * n[k] as u64;
+/// As [`filter_row_f32`] in integers: samples `u16` (65535 = 1.0), work `u64`.
+pub fn filter_row_u16(
+    rows: [&[u16]; PACKED_ROWS],
+    packed_width: usize,
+    params: &FixedParams,
+    work: &mut [u64],
+    out: &mut [u16],
+) -> Result<(), IspError> {
+    let stride = check(&rows, packed_width, work, out)?;
+    let wide = packed_width + 2;
+    let (iv, rest) = work.split_at_mut(12 * wide);
+    let (vsum, rest) = rest.split_at_mut(wide);
+    let (num, rest) = rest.split_at_mut(4 * packed_width);
+    let den = &mut rest[..packed_width];
+    for t in 0..3 {
+        for k in 0..4 {
+            let [up, mid, down] = [t + 1, t + 2, t + 3].map(|r| plane(rows[r], k, stride));
+            let dst = &mut iv[(t * 4 + k) * wide..(t * 4 + k + 1) * wide];
+            for (c, v) in dst.iter_mut().enumerate() {
+                let s = PAD + c - 2;
+                let sum: u64 = up[s..s + 3]
+                    .iter()
+                    .chain(&mid[s..s + 3])
+                    .chain(&down[s..s + 3])
+                    .map(|&v| u64::from(v))
+                    .sum();
+                // At least 2^24 with the floor, so the quotient is at most 2^32.
+                let var = (params.slope_q16[k] * sum + params.offset_q16[k]).max(FLOOR_Q16);
+                *v = ((1u64 << 56) / var).min(u64::from(u32::MAX));
+            }
+        }
+    }
+    num.fill(0);
+    den.fill(0);
+    let floor = (2 * 36) << DISTANCE_BITS;
+    let one = 1u64 << WEIGHT_BITS;
+    let square = |a: u64| (a * a + (1 << (WEIGHT_BITS - 1))) >> WEIGHT_BITS;
+    for dy in -(SEARCH_RADIUS as isize)..=SEARCH_RADIUS as isize {
+        for dx in -(SEARCH_RADIUS as isize)..=SEARCH_RADIUS as isize {
+            vsum.fill(0);
+            for t in 0..3 {
+                let (r, n) = (t + 2, (t as isize + 2 + dy) as usize);
+                for k in 0..4 {
+                    let here = &plane(rows[r], k, stride)[PAD - 1..PAD + 1 + packed_width];
+                    let s = (PAD as isize - 1 + dx) as usize;
+                    let there = &plane(rows[n], k, stride)[s..s + wide];
+                    let inv = &iv[(t * 4 + k) * wide..(t * 4 + k + 1) * wide];
+                    for (((v, &a), &b), &i) in vsum.iter_mut().zip(here).zip(there).zip(inv) {
+                        // d^2 < 2^32 and i < 2^32: the product fits.
+                        let d = u64::from(a.abs_diff(b));
+                        *v += (d * d * i) >> (40 - DISTANCE_BITS);
+                    }
+                }
+            }
+            let centre = (PAD as isize + dy) as usize;
+            let s = (PAD as isize + dx) as usize;
+            for (i, dn) in den.iter_mut().enumerate() {
+                let distance = vsum[i] + vsum[i + 1] + vsum[i + 2];
+                // Beyond 65536 units every allowed strength has weight 0.
+                let excess = distance.saturating_sub(floor).min(1 << 32);
+                let drop = (excess.saturating_mul(params.inv_span_q24) >> 24).min(one);
+                let w = square(square(square(one - drop)));
+                *dn += w;
+                for k in 0..4 {
+                    num[k * packed_width + i] +=
+                        w * u64::from(plane(rows[centre], k, stride)[s + i]);
                 }
             }
         }
     }
-    sum.map(|v| ((v + weight / 2) / weight).min(65535) as u16)
+    for k in 0..4 {
+        for (i, o) in out[k * packed_width..(k + 1) * packed_width]
+            .iter_mut()
+            .enumerate()
+        {
+            // The centre's weight is 2^24, so the divisor is never 0.
+            let d = den[i].max(1);
+            *o = ((num[k * packed_width + i] + d / 2) / d).min(65535) as u16;
+        }
+    }
+    Ok(())
+}
+
+/// Packs mosaic rows `pair` (two rows of `2 * packed_width` samples, the packed row's top and
+/// bottom) into `dst` ([`packed_row_len`]): four channel planes with [`PAD`] reflected samples
+/// either side.
+pub fn pack_row<T: Copy>(
+    pair: [&[T]; 2],
+    packed_width: usize,
+    dst: &mut [T],
+) -> Result<(), IspError> {
+    let stride = packed_width + 2 * PAD;
+    if pair.iter().any(|r| r.len() < 2 * packed_width)
+        || dst.len() < 4 * stride
+        || packed_width == 0
+    {
+        return Err(IspError::InvalidParameter {
+            name: "denoise rows",
+            allowed: "two mosaic rows of twice the packed width",
+        });
+    }
+    for (k, plane) in dst.chunks_exact_mut(stride).take(4).enumerate() {
+        let row = pair[k >> 1];
+        for (c, v) in plane.iter_mut().enumerate() {
+            let i = reflect(c as isize - PAD as isize, packed_width);
+            *v = row[2 * i + (k & 1)];
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Packed rows of a noisy ramp (a deterministic LCG), as both paths take them.
+    fn rows(
+        packed_width: usize,
+        scale: f64,
+    ) -> ([[f32; 4 * 38]; PACKED_ROWS], [[u16; 4 * 38]; PACKED_ROWS]) {
+        assert_eq!(packed_width + 2 * PAD, 38);
+        let mut state = 12345u64;
+        let mut f = [[0.0f32; 4 * 38]; PACKED_ROWS];
+        let mut u = [[0u16; 4 * 38]; PACKED_ROWS];
+        for t in 0..PACKED_ROWS {
+            for k in 0..4 {
+                for c in 0..38 {
+                    state = state
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    let noise = ((state >> 33) as f64 / (1u64 << 31) as f64 - 0.5) * 3.46;
+                    let level = 0.05 + 0.5 * c as f64 / 38.0;
+                    let v = (level + noise * (scale * level).sqrt()).clamp(0.0, 1.0);
+                    let q = (v * 65535.0).round() as u16;
+                    u[t][k * 38 + c] = q;
+                    f[t][k * 38 + c] = f32::from(q) / 65535.0;
+                }
+            }
+        }
+        (f, u)
+    }
+
+    #[test]
+    fn fixed_filter_tracks_the_float_filter() {
+        let wp = 32;
+        for scale in [0.0008f32, 0.0032, 0.0128] {
+            let profile = NoiseProfile::uniform(scale, 2.5e-4).unwrap();
+            let (f, u) = rows(wp, f64::from(scale));
+            let fp = FloatParams::new(&profile, CfaPattern::Rggb, 1.0).unwrap();
+            let xp = FixedParams::new(&profile, CfaPattern::Rggb, 1.0).unwrap();
+            let mut fw = [0.0f32; 1024];
+            let mut uw = [0u64; 1024];
+            let (mut fo, mut uo) = ([0.0f32; 128], [0u16; 128]);
+            filter_row_f32(
+                core::array::from_fn(|t| &f[t][..]),
+                wp,
+                &fp,
+                &mut fw,
+                &mut fo,
+            )
+            .unwrap();
+            filter_row_u16(
+                core::array::from_fn(|t| &u[t][..]),
+                wp,
+                &xp,
+                &mut uw,
+                &mut uo,
+            )
+            .unwrap();
+            for (a, b) in fo.iter().zip(&uo) {
+                let d = (a * 65535.0 - f32::from(*b)).abs();
+                assert!(d <= 2.0, "S {scale}: float {} fixed {b}", a * 65535.0);
+            }
+        }
+    }
 }

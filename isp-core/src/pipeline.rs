@@ -9,12 +9,13 @@
 //! ```text
 //! raw' = dpc(raw)                                   defective pixels replaced (integer, dpc module)
 //! x    = clamp(lsc(x, y) * max(raw' - black, 0) / (white - black), 0, 1)
+//!        or, with noise reduction on (strength > 0 and a noise profile):
+//! x    = clamp(lsc(x, y) * nr(clamp(max(raw' - black, 0) / (white - black), 0, 1)), 0, 1)
 //! x    = min(gain * x, 1)                           ISO / digital gain
 //! x_c  = min(wb_c * x_c, 1)                         white balance per CFA colour, clipped at white
 //! rgb  = demosaic(x)                                reflect-101 borders, clamped to [0, 1]
 //! rgb  = highlights(rgb, x)                         colour near clipping fades to neutral (highlights module)
 //! rgb  = undistort(rgb)                             lens distortion correction, off by default
-//! rgb  = denoise(rgb)                               identity at strength 0
 //! lin  = clamp(CCM * rgb, 0, 1)
 //! lin  = tone(lin)                                  saturation, contrast, curve (tone module)
 //! e    = srgb_oetf(lin)
@@ -22,7 +23,8 @@
 //! out  = round(255 * e)                             or 65535 for 16-bit; f32 output unrounded
 //! ```
 //!
-//! in `f32`, with `lsc` the bilinear interpolation of the Q4.12 grid (exactly `q / 4096` per
+//! in `f32`, with `nr` the noise reduction of [`crate::denoise`] over the whole normalised
+//! mosaic (non-local means on its 2x2 blocks, distances in units of the profile's variance), `lsc` the bilinear interpolation of the Q4.12 grid (exactly `q / 4096` per
 //! node), `undistort` the 1/32-pixel bilinear resampling of [`crate::distortion`] (OpenCV's
 //! `cv2.undistort`, black where the lens saw nothing), and `srgb_oetf` the exact IEC 61966-2-1
 //! curve ([`crate::srgb::encode`]). Sharpening is an unsharp mask on luma in the encoded
@@ -31,7 +33,8 @@
 //! over it with reflect-101 borders, and the same luma detail added to each channel, so hue
 //! is kept. Each stage that is off (no defects, no grid, gain 1, gains
 //! 1, no distortion, strength 0, identity matrix, neutral tone) is skipped, and skipping it
-//! changes nothing.
+//! changes nothing. Noise reduction filters whole 2x2 blocks, so it needs a mosaic of even
+//! width and height (and refuses a linear frame).
 //!
 //! A [`LinearFrame`] (already demosaiced, as a DNG's LinearRaw) runs the same per channel:
 //! `raw` is the channel's sample with that channel's black and white level, `wb_c` its gain,
@@ -47,8 +50,8 @@
 //! unsigned Q16 (so a gained sample is the float one to well under a code, which the
 //! highlight stage needs: it turns a bright neighbour's relative error into a dark channel's
 //! absolute one); demosaicing with the integer kernels;
-//! distortion correction with the same source positions and integer weights over 1024; denoise
-//! with Q12 range weights; the CCM in signed Q4.16; saturation as a Q16 matrix; contrast and
+//! noise reduction with Q16 distances and Q24 weights ([`crate::denoise`]); distortion
+//! correction with the same source positions and integer weights over 1024; the CCM in signed Q4.16; saturation as a Q16 matrix; contrast and
 //! curve through [`ToneLut`]; encoding through [`EncodeLut`] (at 16 bits first when
 //! sharpening, which then runs on 16-bit codes with Q16 luma weights and a Q12 amount, and
 //! reduces to the output depth last). Every step rounds to nearest and
@@ -78,7 +81,7 @@
 //! The common camera pipeline (a raw frame at least 8 pixels wide and 3 high; defect
 //! correction, black level, gain, white balance, bilinear, MHC or directional, highlights,
 //! colour matrix, sharpening;
-//! 8-bit output; no shading grid, distortion correction, denoise or tone) runs on
+//! 8-bit output; no shading grid, distortion correction, noise reduction or tone) runs on
 //! a second schedule of the same stages: rows split into even and odd columns with reflected
 //! padding, so each stage is a loop over contiguous slices with constants fixed per loop, which
 //! the compiler vectorises. It gives the engine's output bit for bit (the fixed path keeps the
@@ -101,7 +104,7 @@
 //! Distortion correction is the one stage whose window is not fixed: an output row reads the
 //! input rows the lens bent it across ([`LensDistortion::window_rows`], a few for a mild lens,
 //! tens for strong barrel distortion on a large frame). With it on, the demosaiced ring holds
-//! that many rows and three more rows hold corrected RGB for denoise:
+//! that many rows and three more rows hold corrected RGB:
 //! [`IspConfig::scratch_len`] reports the total for a frame size, `(14 + 3 * window) * width`.
 //!
 //! ```
@@ -136,9 +139,10 @@ use crate::distortion::LensDistortion;
 use crate::dpc::{self, DpcConfig};
 use crate::frame::{LinearFrame, RawFrame, RgbViewMut, Sample};
 use crate::lsc::{LensShading, MAX_GRID_SIDE};
+use crate::noise::NoiseProfile;
 use crate::srgb::{self, EncodeLut, EncodeThresholds8};
 use crate::tone::{Tone, ToneLut};
-use crate::{ccm, denoise, highlights, wb, IspError};
+use crate::{ccm, denoise, highlights, wb, CfaPattern, IspError};
 
 mod planar;
 
@@ -156,10 +160,12 @@ pub const CCM_FRAC_BITS: u32 = 16;
 pub const SATURATION_FRAC_BITS: u32 = 16;
 /// Rows of prepared mosaic the ring holds (the widest demosaic window).
 const MOSAIC_ROWS: usize = 5;
-/// Rows of demosaiced RGB the ring holds (the denoise window).
+/// Rows of demosaiced RGB the ring holds (and of distortion-corrected RGB with the correction on).
 const RGB_ROWS: usize = 3;
 /// Rows of encoded RGB the sharpening ring holds (its window).
 const SHARPEN_ROWS: usize = 3;
+/// `u16` scratch elements per `u64` of the fixed path's noise-reduction work.
+const FIXED_WORK_RATIO: usize = 4;
 /// Largest sharpening amount.
 pub const MAX_SHARPEN: f32 = 4.0;
 /// Rec. 709 luma weights of the sharpening stage.
@@ -189,8 +195,12 @@ pub struct IspConfig<'a> {
     pub demosaic: Method,
     /// Lens distortion correction, or `None`.
     pub distortion: Option<LensDistortion>,
-    /// Denoise strength, `[0, 1]` (linear units; 0 is off).
+    /// Noise reduction's strength, a multiplier on the default the noise profile sets:
+    /// `[0, 4]`, 0 off, 1 the default ([`crate::denoise`]). Needs [`IspConfig::noise`], a
+    /// mosaic input of even width and height.
     pub denoise: f32,
+    /// The raw's noise profile, which drives noise reduction.
+    pub noise: Option<NoiseProfile>,
     /// Highlight knee, `[0, 1]`: a demosaiced pixel whose largest channel, or largest 3x3
     /// white-balanced raw sample around it, is above the knee fades to neutral, fully at the
     /// clip level 1 ([`crate::highlights`]); 1 is off.
@@ -217,6 +227,7 @@ impl Default for IspConfig<'_> {
             demosaic: Method::Bilinear,
             distortion: None,
             denoise: 0.0,
+            noise: None,
             highlight_knee: 1.0,
             ccm: IDENTITY,
             tone: Tone::default(),
@@ -236,10 +247,16 @@ impl IspConfig<'_> {
             });
         }
         wb::validate_gains(self.wb_gains)?;
-        if !(0.0..=1.0).contains(&self.denoise) {
+        if !(0.0..=denoise::MAX_STRENGTH).contains(&self.denoise) {
             return Err(IspError::InvalidParameter {
                 name: "denoise strength",
-                allowed: "[0, 1]",
+                allowed: "[0, 4] (0 off, 1 the noise profile's default)",
+            });
+        }
+        if self.denoise > 0.0 && self.noise.is_none() {
+            return Err(IspError::InvalidParameter {
+                name: "denoise",
+                allowed: "0 without a noise profile (noise reduction follows the profile)",
             });
         }
         if !(0.0..=1.0).contains(&self.highlight_knee) {
@@ -271,20 +288,46 @@ impl IspConfig<'_> {
     /// module docs). With distortion on,
     /// this evaluates the lens model at every pixel once.
     pub fn scratch_len(&self, width: usize, height: usize) -> Option<usize> {
-        let extra = extra_len::<Fixed<u16>>(self.demosaic, self.sharpen > 0.0, width)?;
+        let denoise = (self.denoise > 0.0).then_some(FIXED_WORK_RATIO);
+        let extra = extra_len::<Fixed<u16>>(self.demosaic, self.sharpen > 0.0, denoise, width)?;
         engine_scratch_len(self.active_distortion(), extra, width, height)
     }
 }
 
-/// Elements of a path's scratch beyond [`scratch_len`] for the directional method's rings and
-/// the sharpening rows.
-fn extra_len<A: Arithmetic>(method: Method, sharpen: bool, width: usize) -> Option<usize> {
+/// Elements of a path's scratch beyond [`scratch_len`] for the directional method's rings,
+/// the sharpening rows and noise reduction (`denoise`: the path's scratch elements per work
+/// element, when it is on).
+fn extra_len<A: Arithmetic>(
+    method: Method,
+    sharpen: bool,
+    denoise: Option<usize>,
+    width: usize,
+) -> Option<usize> {
     let sharpen_rows = if sharpen {
         width.checked_mul(3 * SHARPEN_ROWS)?
     } else {
         0
     };
-    directional_len::<A>(method, width)?.checked_add(sharpen_rows)
+    directional_len::<A>(method, width)?
+        .checked_add(sharpen_rows)?
+        .checked_add(denoise_len(denoise, width)?)
+}
+
+/// Elements of a path's scratch for noise reduction when it is on (`work_ratio` scratch
+/// elements per work element): the ring of packed rows, the filtered pair of mosaic rows,
+/// the filter's output planes and its work (plus alignment).
+fn denoise_len(work_ratio: Option<usize>, width: usize) -> Option<usize> {
+    let Some(ratio) = work_ratio else {
+        return Some(0);
+    };
+    let packed = width / 2;
+    let ring = denoise::packed_row_len(packed)?.checked_mul(denoise::PACKED_ROWS)?;
+    let work = denoise::work_len(packed)?
+        .checked_mul(ratio)?
+        .checked_add(ratio - 1)?;
+    ring.checked_add(width.checked_mul(2)?)?
+        .checked_add(packed.checked_mul(4)?)?
+        .checked_add(work)
 }
 
 /// Elements of a path's scratch (of type `A::T`) that hold the directional method's ring
@@ -447,7 +490,34 @@ trait Path {
     fn dpc(&self) -> &DpcConfig<'_>;
     /// Distortion correction, if on.
     fn distortion(&self) -> Option<&LensDistortion>;
-    fn denoise_radius(&self) -> usize;
+    /// Noise reduction's parameters (for a raw of one pattern) and work type.
+    type NrParams;
+    type NrWork: Copy + 'static;
+    /// Noise reduction's parameters for a raw of `pattern`, when it is on.
+    fn nr_params(&self, pattern: CfaPattern) -> Result<Option<Self::NrParams>, IspError>;
+    /// Noise reduction's work in a part of this path's scratch.
+    fn nr_work(part: &mut [Self::P]) -> &mut [Self::NrWork];
+    /// Filters one packed row ([`denoise::filter_row_f32`] or [`denoise::filter_row_u16`]).
+    fn nr_filter(
+        params: &Self::NrParams,
+        rows: [&[Self::P]; denoise::PACKED_ROWS],
+        packed_width: usize,
+        work: &mut [Self::NrWork],
+        out: &mut [Self::P],
+    ) -> Result<(), IspError>;
+    /// Black-level subtraction alone, for noise reduction: pixels `x0..x0 + out.len()` of
+    /// row `y` as fractions of white above black, clamped to `[0, 1]`.
+    fn normalise_span(
+        &self,
+        raw: &RawFrame<'_>,
+        y: usize,
+        x0: usize,
+        dpc: &[u16],
+        out: &mut [Self::P],
+    );
+    /// Shading, ISO gain and white balance on mosaic row `y` normalised by
+    /// [`Path::normalise_span`] (and noise-reduced), in place.
+    fn gains_row(&self, raw: &RawFrame<'_>, y: usize, row: &mut [Self::P]);
     /// Pointwise stages for pixels `x0..x0 + out.len()` of row `y`, from corrected raw samples.
     fn mosaic_span(
         &self,
@@ -466,14 +536,13 @@ trait Path {
     /// The highlight stage on a demosaiced pixel whose 3x3 raw neighbourhood peaks at
     /// `brightest`.
     fn highlights(&self, rgb: [Self::P; 3], brightest: Self::P) -> [Self::P; 3];
-    /// Denoise (or pass through) the middle row of `rows`, then CCM, tone and encoding, into
-    /// `out` (a row of the output).
-    fn finish_row<O: OutputSample>(&self, rows: [&[Self::P]; 3], out: &mut [O]);
+    /// CCM, tone and encoding of a row of linear RGB into `out` (a row of the output).
+    fn finish_row<O: OutputSample>(&self, row: &[Self::P], out: &mut [O]);
     /// Whether the sharpening stage is on.
     fn sharpen_on(&self) -> bool;
     /// As [`Path::finish_row`] up to the encoding, into `out` in this path's encoded domain
     /// (`f32` in `[0, 1]`, 16-bit codes), for the sharpening stage.
-    fn encoded_row(&self, rows: [&[Self::P]; 3], out: &mut [Self::P]);
+    fn encoded_row(&self, row: &[Self::P], out: &mut [Self::P]);
     /// Sharpens the middle row of `rows` (encoded, [`Path::encoded_row`]) into `out`.
     fn sharpen_row<O: OutputSample>(&self, rows: [&[Self::P]; 3], out: &mut [O]);
 }
@@ -534,7 +603,8 @@ impl<'a> FloatPipeline<'a> {
     /// [`IspConfig::scratch_len`]).
     pub fn scratch_len(&self, width: usize, height: usize) -> Option<usize> {
         let c = &self.config;
-        let extra = extra_len::<Float<f32>>(c.demosaic, c.sharpen > 0.0, width)?;
+        let denoise = (c.denoise > 0.0).then_some(1);
+        let extra = extra_len::<Float<f32>>(c.demosaic, c.sharpen > 0.0, denoise, width)?;
         engine_scratch_len(c.active_distortion(), extra, width, height)
     }
 
@@ -661,8 +731,13 @@ impl FloatPipeline<'_> {
     /// of `range` (white minus black), with the shading gain and white-balance gain at it.
     #[inline]
     fn pointwise(&self, d: u16, range: f32, shading: Option<f32>, wb: f32) -> f32 {
+        self.gains(d as f32 / range, shading, wb)
+    }
+
+    /// Shading, ISO gain and white balance of a normalised sample `v`.
+    #[inline]
+    fn gains(&self, mut v: f32, shading: Option<f32>, wb: f32) -> f32 {
         let c = &self.config;
-        let mut v = d as f32 / range;
         if let Some(s) = shading {
             v *= s;
         }
@@ -697,8 +772,55 @@ impl Path for FloatPipeline<'_> {
         self.config.active_distortion()
     }
 
-    fn denoise_radius(&self) -> usize {
-        usize::from(self.config.denoise > 0.0)
+    type NrParams = denoise::FloatParams;
+    type NrWork = f32;
+
+    fn nr_params(&self, pattern: CfaPattern) -> Result<Option<denoise::FloatParams>, IspError> {
+        match (&self.config.noise, self.config.denoise > 0.0) {
+            (Some(profile), true) => {
+                denoise::FloatParams::new(profile, pattern, self.config.denoise).map(Some)
+            }
+            _ => Ok(None),
+        }
+    }
+
+    fn nr_work(part: &mut [f32]) -> &mut [f32] {
+        part
+    }
+
+    fn nr_filter(
+        params: &denoise::FloatParams,
+        rows: [&[f32]; denoise::PACKED_ROWS],
+        packed_width: usize,
+        work: &mut [f32],
+        out: &mut [f32],
+    ) -> Result<(), IspError> {
+        denoise::filter_row_f32(rows, packed_width, params, work, out)
+    }
+
+    fn normalise_span(
+        &self,
+        raw: &RawFrame<'_>,
+        y: usize,
+        x0: usize,
+        dpc: &[u16],
+        out: &mut [f32],
+    ) {
+        let white = raw.white_level() as f32;
+        for (i, (o, &r)) in out.iter_mut().zip(dpc).enumerate() {
+            let black = raw.black_at(x0 + i, y);
+            *o = (r.saturating_sub(black) as f32 / (white - black as f32)).clamp(0.0, 1.0);
+        }
+    }
+
+    fn gains_row(&self, raw: &RawFrame<'_>, y: usize, row: &mut [f32]) {
+        let c = &self.config;
+        let mosaic = raw.mosaic();
+        let (w, h, pattern) = (mosaic.width(), mosaic.height(), mosaic.pattern());
+        for (x, v) in row.iter_mut().enumerate() {
+            let shading = c.lsc.as_ref().map(|lsc| lsc.gain_f32(x, y, w, h));
+            *v = self.gains(*v, shading, c.wb_gains[pattern.colour_at(x, y).index()]);
+        }
     }
 
     fn mosaic_span(&self, raw: &RawFrame<'_>, y: usize, x0: usize, dpc: &[u16], out: &mut [f32]) {
@@ -766,7 +888,7 @@ impl Path for FloatPipeline<'_> {
         highlights::neutralise_f32(rgb, brightest, self.config.highlight_knee)
     }
 
-    fn finish_row<O: OutputSample>(&self, rows: [&[f32]; 3], out: &mut [O]) {
+    fn finish_row<O: OutputSample>(&self, row: &[f32], out: &mut [O]) {
         let c = &self.config;
         let encode = |v: f32| {
             if O::BITS == 8 {
@@ -777,14 +899,13 @@ impl Path for FloatPipeline<'_> {
             }
         };
         // Every switch is decided once per row, so the loop holds only the stages that run.
-        let denoise = c.denoise > 0.0;
         let ccm_on = c.ccm != IDENTITY;
         let tone_on = !(c.tone.saturation_is_identity() && c.tone.curve_is_identity());
-        if !denoise && !tone_on {
+        if !tone_on {
             // The common camera pipeline: colour matrix (or none) and encoding, in a loop of
             // its own: with the stages that call out in it, the pixel went through the stack
             // in pieces and was read back whole, a store-forwarding stall per pixel.
-            let (row, pixels) = (rows[1], out.chunks_exact_mut(3));
+            let pixels = out.chunks_exact_mut(3);
             if ccm_on {
                 for (px, rgb) in pixels.zip(row.chunks_exact(3)) {
                     let lin = ccm::apply_f32(&c.ccm, [rgb[0], rgb[1], rgb[2]]);
@@ -799,8 +920,11 @@ impl Path for FloatPipeline<'_> {
             }
             return;
         }
-        for (x, px) in out.chunks_exact_mut(3).enumerate() {
-            for (o, v) in px.iter_mut().zip(self.linear_pixel(rows, x)) {
+        for (px, rgb) in out.chunks_exact_mut(3).zip(row.chunks_exact(3)) {
+            for (o, v) in px
+                .iter_mut()
+                .zip(self.linear_pixel([rgb[0], rgb[1], rgb[2]]))
+            {
                 *o = encode(v);
             }
         }
@@ -810,9 +934,12 @@ impl Path for FloatPipeline<'_> {
         self.config.sharpen > 0.0
     }
 
-    fn encoded_row(&self, rows: [&[f32]; 3], out: &mut [f32]) {
-        for (x, px) in out.chunks_exact_mut(3).enumerate() {
-            for (o, v) in px.iter_mut().zip(self.linear_pixel(rows, x)) {
+    fn encoded_row(&self, row: &[f32], out: &mut [f32]) {
+        for (px, rgb) in out.chunks_exact_mut(3).zip(row.chunks_exact(3)) {
+            for (o, v) in px
+                .iter_mut()
+                .zip(self.linear_pixel([rgb[0], rgb[1], rgb[2]]))
+            {
                 *o = srgb::encode(v);
             }
         }
@@ -831,15 +958,10 @@ impl Path for FloatPipeline<'_> {
 }
 
 impl FloatPipeline<'_> {
-    /// Denoise (or the pixel itself), CCM and tone at pixel `x` of the middle row of `rows`.
+    /// CCM and tone of one pixel.
     #[inline]
-    fn linear_pixel(&self, rows: [&[f32]; 3], x: usize) -> [f32; 3] {
+    fn linear_pixel(&self, rgb: [f32; 3]) -> [f32; 3] {
         let c = &self.config;
-        let rgb = if c.denoise > 0.0 {
-            denoise::pixel_f32(rows, x, c.denoise)
-        } else {
-            [rows[1][3 * x], rows[1][3 * x + 1], rows[1][3 * x + 2]]
-        };
         let lin = if c.ccm != IDENTITY {
             ccm::apply_f32(&c.ccm, rgb)
         } else {
@@ -862,7 +984,8 @@ pub struct FixedPipeline<'a> {
     distortion: Option<LensDistortion>,
     gain_q16: Option<u64>,
     wb_q16: Option<[u64; 3]>,
-    inverse_denoise: Option<u64>,
+    /// Noise reduction's profile and strength, when it is on.
+    denoise: Option<(NoiseProfile, f32)>,
     highlights: Option<highlights::KneeQ16>,
     ccm_q: Option<[[i32; 3]; 3]>,
     saturation_q: Option<[[i32; 3]; 3]>,
@@ -889,8 +1012,10 @@ impl<'a> FixedPipeline<'a> {
             distortion: config.active_distortion().copied(),
             gain_q16: (config.gain != 1.0).then(|| to_q16(config.gain)),
             wb_q16: (config.wb_gains != [1.0; 3]).then(|| config.wb_gains.map(to_q16)),
-            inverse_denoise: (config.denoise > 0.0)
-                .then(|| denoise::inverse_strength_q16(config.denoise)),
+            denoise: config
+                .noise
+                .filter(|_| config.denoise > 0.0)
+                .map(|profile| (profile, config.denoise)),
             highlights: (config.highlight_knee < 1.0)
                 .then(|| highlights::KneeQ16::new(config.highlight_knee)),
             ccm_q: (ccm_q != identity_q).then_some(ccm_q),
@@ -911,7 +1036,9 @@ impl<'a> FixedPipeline<'a> {
     /// Scratch elements [`FixedPipeline::run`] needs for a `width` x `height` frame (see
     /// [`IspConfig::scratch_len`]).
     pub fn scratch_len(&self, width: usize, height: usize) -> Option<usize> {
-        let extra = extra_len::<Fixed<u16>>(self.method, self.sharpen_q12.is_some(), width)?;
+        let denoise = self.denoise.is_some().then_some(FIXED_WORK_RATIO);
+        let extra =
+            extra_len::<Fixed<u16>>(self.method, self.sharpen_q12.is_some(), denoise, width)?;
         engine_scratch_len(self.distortion.as_ref(), extra, width, height)
     }
 
@@ -1104,7 +1231,12 @@ impl FixedPipeline<'_> {
         if let Some(s) = shading {
             t = (t >> 16) * s;
         }
-        let mut v = ((t + (1 << 15)) >> 16).min(65535);
+        self.gains_q16(((t + (1 << 15)) >> 16).min(65535), colour)
+    }
+
+    /// ISO gain and the white balance of `colour` on a 16-bit linear sample.
+    #[inline]
+    fn gains_q16(&self, mut v: u64, colour: usize) -> u16 {
         if let Some(g) = self.gain_q16 {
             v = ((v * g + (1 << 15)) >> GAIN_FRAC_BITS).min(65535);
         }
@@ -1136,8 +1268,64 @@ impl Path for FixedPipeline<'_> {
         self.distortion.as_ref()
     }
 
-    fn denoise_radius(&self) -> usize {
-        usize::from(self.inverse_denoise.is_some())
+    type NrParams = denoise::FixedParams;
+    type NrWork = u64;
+
+    fn nr_params(&self, pattern: CfaPattern) -> Result<Option<denoise::FixedParams>, IspError> {
+        match &self.denoise {
+            Some((profile, strength)) => {
+                denoise::FixedParams::new(profile, pattern, *strength).map(Some)
+            }
+            None => Ok(None),
+        }
+    }
+
+    fn nr_work(part: &mut [u16]) -> &mut [u64] {
+        // The part holds three elements more than the work needs, for the alignment.
+        bytemuck::pod_align_to_mut::<u16, u64>(part).1
+    }
+
+    fn nr_filter(
+        params: &denoise::FixedParams,
+        rows: [&[u16]; denoise::PACKED_ROWS],
+        packed_width: usize,
+        work: &mut [u64],
+        out: &mut [u16],
+    ) -> Result<(), IspError> {
+        denoise::filter_row_u16(rows, packed_width, params, work, out)
+    }
+
+    fn normalise_span(
+        &self,
+        raw: &RawFrame<'_>,
+        y: usize,
+        x0: usize,
+        dpc: &[u16],
+        out: &mut [u16],
+    ) {
+        let black = raw.black_level();
+        let recip: [u64; 4] = core::array::from_fn(|p| recip_q16(raw.white_level() - black[p]));
+        for (i, (o, &r)) in out.iter_mut().zip(dpc).enumerate() {
+            let position = (y & 1) * 2 + ((x0 + i) & 1);
+            let t = u64::from(r.saturating_sub(black[position])) * recip[position];
+            *o = ((t + (1 << 15)) >> 16).min(65535) as u16;
+        }
+    }
+
+    fn gains_row(&self, raw: &RawFrame<'_>, y: usize, row: &mut [u16]) {
+        let mosaic = raw.mosaic();
+        let (w, h, pattern) = (mosaic.width(), mosaic.height(), mosaic.pattern());
+        let mut nodes = [0u32; 2 * MAX_GRID_SIDE];
+        if let Some(lsc) = &self.lsc {
+            lsc.row_nodes_q16(y, h, &mut nodes);
+        }
+        for (x, v) in row.iter_mut().enumerate() {
+            let mut t = u64::from(*v);
+            if let Some(lsc) = &self.lsc {
+                t = ((t * lsc.gain_q16(&nodes, x, w) + (1 << 15)) >> 16).min(65535);
+            }
+            *v = self.gains_q16(t, pattern.colour_at(x, y).index());
+        }
     }
 
     fn mosaic_span(&self, raw: &RawFrame<'_>, y: usize, x0: usize, dpc: &[u16], out: &mut [u16]) {
@@ -1212,15 +1400,11 @@ impl Path for FixedPipeline<'_> {
         }
     }
 
-    fn finish_row<O: OutputSample>(&self, rows: [&[u16]; 3], out: &mut [O]) {
-        if self.inverse_denoise.is_none()
-            && self.saturation_q.is_none()
-            && self.tone_lut.is_none()
-            && O::BITS == 8
-        {
+    fn finish_row<O: OutputSample>(&self, row: &[u16], out: &mut [O]) {
+        if self.saturation_q.is_none() && self.tone_lut.is_none() && O::BITS == 8 {
             // The common camera pipeline: colour matrix (or none) and 8-bit encoding only.
             let encode = |v: u16| O::from_code(self.encode.lookup(v));
-            let (row, pixels) = (rows[1], out.chunks_exact_mut(3));
+            let pixels = out.chunks_exact_mut(3);
             match &self.ccm_q {
                 Some(m) => {
                     for (px, rgb) in pixels.zip(row.chunks_exact(3)) {
@@ -1238,8 +1422,8 @@ impl Path for FixedPipeline<'_> {
             }
             return;
         }
-        for (x, px) in out.chunks_exact_mut(3).enumerate() {
-            let lin = self.linear_pixel(rows, x);
+        for (px, rgb) in out.chunks_exact_mut(3).zip(row.chunks_exact(3)) {
+            let lin = self.linear_pixel([rgb[0], rgb[1], rgb[2]]);
             for (o, v) in px.iter_mut().zip(lin) {
                 *o = O::from_code(self.encode.lookup(v));
             }
@@ -1250,12 +1434,12 @@ impl Path for FixedPipeline<'_> {
         self.sharpen_q12.is_some()
     }
 
-    fn encoded_row(&self, rows: [&[u16]; 3], out: &mut [u16]) {
+    fn encoded_row(&self, row: &[u16], out: &mut [u16]) {
         let Some((_, encode16)) = &self.sharpen_q12 else {
             return;
         };
-        for (x, px) in out.chunks_exact_mut(3).enumerate() {
-            let lin = self.linear_pixel(rows, x);
+        for (px, rgb) in out.chunks_exact_mut(3).zip(row.chunks_exact(3)) {
+            let lin = self.linear_pixel([rgb[0], rgb[1], rgb[2]]);
             // Codes of a 16-bit table fit u16.
             for (o, v) in px.iter_mut().zip(lin) {
                 *o = encode16.lookup(v) as u16;
@@ -1291,13 +1475,9 @@ impl Path for FixedPipeline<'_> {
 }
 
 impl FixedPipeline<'_> {
-    /// Denoise (or the pixel itself), CCM and tone at pixel `x` of the middle row of `rows`.
+    /// CCM and tone of one pixel.
     #[inline]
-    fn linear_pixel(&self, rows: [&[u16]; 3], x: usize) -> [u16; 3] {
-        let mut lin = match self.inverse_denoise {
-            Some(inv) => denoise::pixel_u16(rows, x, inv),
-            None => [rows[1][3 * x], rows[1][3 * x + 1], rows[1][3 * x + 2]],
-        };
+    fn linear_pixel(&self, mut lin: [u16; 3]) -> [u16; 3] {
         if let Some(m) = &self.ccm_q {
             lin = ccm::apply_u16(m, CCM_FRAC_BITS, lin);
         }
@@ -1351,6 +1531,21 @@ impl RowWindow {
     }
 }
 
+/// Noise reduction's rings in one run: packed rows of the normalised mosaic, and the
+/// filtered pair of mosaic rows (after the gains) that the mosaic ring copies from.
+struct Denoiser<'s, A: Path> {
+    params: A::NrParams,
+    /// [`denoise::PACKED_ROWS`] packed rows, packed row `r` in slot `r % PACKED_ROWS`.
+    ring: &'s mut [A::P],
+    tags: [usize; denoise::PACKED_ROWS],
+    /// Mosaic rows `2 * pair_tag` and `2 * pair_tag + 1`.
+    pair: &'s mut [A::P],
+    pair_tag: usize,
+    /// The filter's four output planes.
+    filtered: &'s mut [A::P],
+    work: &'s mut [A::NrWork],
+}
+
 /// The ring buffers of one run and how to fill them.
 struct Engine<'s, 'p, A: Path> {
     path: &'p A,
@@ -1361,6 +1556,8 @@ struct Engine<'s, 'p, A: Path> {
     mosaic_tags: [usize; MOSAIC_ROWS],
     /// The directional method, when it runs (it keeps its own rows).
     directional: Option<Stream<'s, A::Directional>>,
+    /// Noise reduction, when it is on.
+    denoiser: Option<Denoiser<'s, A>>,
     /// Demosaiced RGB, `demosaic_slots` rows.
     demosaic_ring: &'s mut [A::P],
     demosaic_slots: usize,
@@ -1393,18 +1590,16 @@ impl<A: Path> Engine<'_, '_, A> {
         Ok(())
     }
 
-    /// Makes the denoise window around row `y` held (demosaiced rows, or distortion-corrected
-    /// ones when the correction is on) and returns its rows `y - 1`, `y`, `y + 1` (reflected).
-    fn window(&mut self, y: usize) -> Result<[&[A::P]; 3], IspError> {
+    /// Makes linear row `y` held (demosaiced, or distortion-corrected when the correction is
+    /// on) and returns it.
+    fn linear_rgb_row(&mut self, y: usize) -> Result<&[A::P], IspError> {
         let (w, h) = (self.input.width(), self.input.height());
-        let radius = self.path.denoise_radius() as isize;
-        let taps = (-radius..=radius).map(|dy| reflect(y as isize + dy, h));
-        let (lo, hi) = taps.fold((usize::MAX, 0), |(lo, hi), r| (lo.min(r), hi.max(r)));
         let Some(lens) = self.path.distortion() else {
-            self.demosaic_rows(lo, hi)?;
-            return Ok(Self::rows_around(self.demosaic_ring, y, w, h));
+            self.demosaic_rows(y, y)?;
+            let slot = y % self.demosaic_slots;
+            return Ok(&self.demosaic_ring[slot * 3 * w..(slot + 1) * 3 * w]);
         };
-        for range in self.corrected_window.request(lo, hi, RGB_ROWS) {
+        for range in self.corrected_window.request(y, y, RGB_ROWS) {
             for v in range {
                 let slot = v % RGB_ROWS;
                 let Some(source) = lens.source_rows(v, w, h) else {
@@ -1433,15 +1628,8 @@ impl<A: Path> Engine<'_, '_, A> {
                 lens.correct_row(v, w, h, row, dst);
             }
         }
-        Ok(Self::rows_around(self.corrected_ring, y, w, h))
-    }
-
-    /// Rows `y - 1`, `y`, `y + 1` (reflected) of a ring of `RGB_ROWS` rows.
-    fn rows_around(ring: &[A::P], y: usize, w: usize, h: usize) -> [&[A::P]; 3] {
-        core::array::from_fn(|i| {
-            let slot = reflect(y as isize + i as isize - 1, h) % RGB_ROWS;
-            &ring[slot * 3 * w..(slot + 1) * 3 * w]
-        })
+        let slot = y % RGB_ROWS;
+        Ok(&self.corrected_ring[slot * 3 * w..(slot + 1) * 3 * w])
     }
 
     /// A linear frame's row, prepared as a demosaiced one is; the highlight stage sees the
@@ -1459,14 +1647,84 @@ impl<A: Path> Engine<'_, '_, A> {
         }
     }
 
-    /// Row `my` of the raw frame through defect correction and the pointwise stages, into
-    /// `dst`.
-    fn prepare_row(path: &A, raw: &RawFrame<'_>, my: usize, dst: &mut [A::P]) {
+    /// Row `my` of the raw frame through defect correction and the pointwise stages (and
+    /// noise reduction, when it is on), into `dst`.
+    fn prepare_row(
+        path: &A,
+        denoiser: &mut Option<Denoiser<'_, A>>,
+        raw: &RawFrame<'_>,
+        my: usize,
+        dst: &mut [A::P],
+    ) -> Result<(), IspError> {
+        let Some(nr) = denoiser else {
+            Self::corrected_row(raw, path.dpc(), my, dst, |x0, y, dpc, out| {
+                path.mosaic_span(raw, y, x0, dpc, out)
+            });
+            return Ok(());
+        };
+        let mosaic = raw.mosaic();
+        let (w, h) = (mosaic.width(), mosaic.height());
+        let (wp, hp) = (w / 2, h / 2);
+        let j = my / 2;
+        if nr.pair_tag != j {
+            // The pair's rows are the packing's temporary until the filter writes them.
+            nr.pair_tag = usize::MAX;
+            let len = nr.ring.len() / denoise::PACKED_ROWS;
+            let packed = |t: usize| reflect(j as isize + t as isize - denoise::PAD as isize, hp);
+            for t in 0..denoise::PACKED_ROWS {
+                let r = packed(t);
+                let slot = r % denoise::PACKED_ROWS;
+                if nr.tags[slot] == r {
+                    continue;
+                }
+                let (top, bottom) = nr.pair.split_at_mut(w);
+                for (py, row) in [top, bottom].into_iter().enumerate() {
+                    Self::corrected_row(raw, path.dpc(), 2 * r + py, row, |x0, y, dpc, out| {
+                        path.normalise_span(raw, y, x0, dpc, out)
+                    });
+                }
+                let (top, bottom) = nr.pair.split_at(w);
+                denoise::pack_row(
+                    [top, bottom],
+                    wp,
+                    &mut nr.ring[slot * len..(slot + 1) * len],
+                )?;
+                nr.tags[slot] = r;
+            }
+            let ring: &[A::P] = nr.ring;
+            let rows = core::array::from_fn(|t| {
+                let slot = packed(t) % denoise::PACKED_ROWS;
+                &ring[slot * len..(slot + 1) * len]
+            });
+            A::nr_filter(&nr.params, rows, wp, nr.work, nr.filtered)?;
+            for (py, row) in nr.pair.chunks_exact_mut(w).enumerate() {
+                let [left, right] =
+                    [2 * py, 2 * py + 1].map(|k| &nr.filtered[k * wp..(k + 1) * wp]);
+                for ((pair, &a), &b) in row.chunks_exact_mut(2).zip(left).zip(right) {
+                    pair[0] = a;
+                    pair[1] = b;
+                }
+                path.gains_row(raw, 2 * j + py, row);
+            }
+            nr.pair_tag = j;
+        }
+        dst.copy_from_slice(&nr.pair[(my & 1) * w..(my & 1) * w + w]);
+        Ok(())
+    }
+
+    /// Row `my` through defect correction, then `span(x0, my, corrected, out)` chunk by chunk.
+    fn corrected_row(
+        raw: &RawFrame<'_>,
+        dpc: &DpcConfig<'_>,
+        my: usize,
+        dst: &mut [A::P],
+        mut span: impl FnMut(usize, usize, &[u16], &mut [A::P]),
+    ) {
         let mut corrected = [0u16; CHUNK];
         for x0 in (0..dst.len()).step_by(CHUNK) {
             let n = CHUNK.min(dst.len() - x0);
-            dpc::correct_span(raw, path.dpc(), my, x0, &mut corrected[..n]);
-            path.mosaic_span(raw, my, x0, &corrected[..n], &mut dst[x0..x0 + n]);
+            dpc::correct_span(raw, dpc, my, x0, &mut corrected[..n]);
+            span(x0, my, &corrected[..n], &mut dst[x0..x0 + n]);
         }
     }
 
@@ -1492,7 +1750,7 @@ impl<A: Path> Engine<'_, '_, A> {
             }
             let read = stream.next_read();
             if let Some(my) = read {
-                Self::prepare_row(self.path, raw, my, prepared);
+                Self::prepare_row(self.path, &mut self.denoiser, raw, my, prepared)?;
             }
             let source = read.map(|_| SourceRow::Interleaved(&*prepared));
             if stream.next_output() == Some(ry) {
@@ -1533,7 +1791,7 @@ impl<A: Path> Engine<'_, '_, A> {
                 continue;
             }
             let dst = &mut self.mosaic_ring[slot * w..(slot + 1) * w];
-            Self::prepare_row(self.path, raw, my, dst);
+            Self::prepare_row(self.path, &mut self.denoiser, raw, my, dst)?;
             self.mosaic_tags[slot] = my;
         }
         let ring: &[A::P] = self.mosaic_ring;
@@ -1683,8 +1941,32 @@ fn run_rows<A: Path, O: OutputSample>(
         true => w.checked_mul(3 * SHARPEN_ROWS).ok_or(too_wide)?,
         false => 0,
     };
+    let nr_params = match input {
+        Input::Mosaic(raw) => path.nr_params(raw.mosaic().pattern())?,
+        Input::Linear(_) => match path.nr_params(CfaPattern::Rggb)? {
+            Some(_) => {
+                return Err(IspError::InvalidParameter {
+                    name: "denoise",
+                    allowed: "0 for a linear (already demosaiced) frame",
+                })
+            }
+            None => None,
+        },
+    };
+    if nr_params.is_some() && (!w.is_multiple_of(2) || !h.is_multiple_of(2)) {
+        return Err(IspError::InvalidParameter {
+            name: "denoise",
+            allowed: "0 for a mosaic of odd width or height (it filters whole 2x2 blocks)",
+        });
+    }
+    let work_ratio = core::mem::size_of::<A::NrWork>() / core::mem::size_of::<A::P>();
+    let denoise_part = denoise_len(nr_params.as_ref().map(|_| work_ratio), w).ok_or(too_wide)?;
     let base = scratch_len(w)
-        .and_then(|b| b.checked_add(directional_part)?.checked_add(sharpen_part))
+        .and_then(|b| {
+            b.checked_add(directional_part)?
+                .checked_add(sharpen_part)?
+                .checked_add(denoise_part)
+        })
         .ok_or(too_wide)?;
     if scratch.len() < base {
         return Err(IspError::BufferTooSmall {
@@ -1700,6 +1982,25 @@ fn run_rows<A: Path, O: OutputSample>(
     let (window_ring, rest) = rest.split_at_mut(RGB_ROWS * 3 * w);
     let (planes, rest) = rest.split_at_mut(directional_part);
     let (sharpen_ring, rest) = rest.split_at_mut(sharpen_part);
+    let (denoise_scratch, rest) = rest.split_at_mut(denoise_part);
+    let denoiser = match nr_params {
+        Some(params) => {
+            let packed = denoise::packed_row_len(w / 2).ok_or(too_wide)?;
+            let (ring, more) = denoise_scratch.split_at_mut(denoise::PACKED_ROWS * packed);
+            let (pair, more) = more.split_at_mut(2 * w);
+            let (filtered, more) = more.split_at_mut(2 * w);
+            Some(Denoiser {
+                params,
+                ring,
+                tags: [usize::MAX; denoise::PACKED_ROWS],
+                pair,
+                pair_tag: usize::MAX,
+                filtered,
+                work: A::nr_work(more),
+            })
+        }
+        None => None,
+    };
     let directional = match input {
         Input::Mosaic(raw) if directional_part > 0 => {
             Stream::new(w, h, raw.mosaic().pattern(), A::directional_planes(planes))?
@@ -1719,30 +2020,33 @@ fn run_rows<A: Path, O: OutputSample>(
         mosaic_ring,
         mosaic_tags: [usize::MAX; MOSAIC_ROWS],
         directional,
+        denoiser,
         demosaic_ring,
         demosaic_slots,
         demosaic_window: RowWindow::default(),
         corrected_ring,
         corrected_window: RowWindow::default(),
-        needed: distortion
-            .and_then(|lens| engine_scratch_len(Some(lens), directional_part + sharpen_part, w, h)),
+        needed: distortion.and_then(|lens| {
+            let extra = directional_part + sharpen_part + denoise_part;
+            engine_scratch_len(Some(lens), extra, w, h)
+        }),
         provided,
     };
     let mut sharpen_window = RowWindow::default();
     for y in rows.clone() {
         let out_row = out.row_mut(y - rows.start);
         if sharpen_part == 0 {
-            path.finish_row(engine.window(y)?, out_row);
+            path.finish_row(engine.linear_rgb_row(y)?, out_row);
             continue;
         }
-        // The sharpening window: encoded rows y - 1 ..= y + 1, each from its own denoise window.
+        // The sharpening window: encoded rows y - 1 ..= y + 1.
         let taps = [-1isize, 0, 1].map(|dy| reflect(y as isize + dy, h));
         let (lo, hi) = (taps[0].min(y), taps[2].max(y));
         for range in sharpen_window.request(lo, hi, SHARPEN_ROWS) {
             for v in range {
                 let slot = v % SHARPEN_ROWS;
-                let window = engine.window(v)?;
-                path.encoded_row(window, &mut sharpen_ring[slot * 3 * w..(slot + 1) * 3 * w]);
+                let row = engine.linear_rgb_row(v)?;
+                path.encoded_row(row, &mut sharpen_ring[slot * 3 * w..(slot + 1) * 3 * w]);
             }
         }
         let ring: &[A::P] = sharpen_ring;

@@ -9,6 +9,7 @@ use isp_core::distortion::{BrownConrady, LensDistortion};
 use isp_core::dpc::{Defect, DefectMap, DpcConfig};
 use isp_core::frame::{RawFrame, RgbViewMut};
 use isp_core::lsc::LensShading;
+use isp_core::noise::NoiseProfile;
 use isp_core::pipeline::{scratch_len, FixedPipeline, FloatPipeline, IspConfig};
 use isp_core::tone::{Tone, ToneCurve};
 use isp_core::wb::{self, AwbMethod};
@@ -60,6 +61,8 @@ fn full_pipeline_run_allocates_nothing() {
     let with_lens = IspConfig {
         distortion: Some(lens),
         sharpen: 0.5,
+        denoise: 1.0,
+        noise: Some(NoiseProfile::uniform(0.0032, 1.5e-5).unwrap()),
         ..IspConfig::default()
     };
     let len = with_lens.scratch_len(w, h).unwrap();
@@ -90,7 +93,8 @@ fn full_pipeline_run_allocates_nothing() {
         wb_gains: awb.gains,
         demosaic: Method::Mhc,
         distortion: Some(lens),
-        denoise: 0.05,
+        denoise: 1.0,
+        noise: Some(NoiseProfile::uniform(0.0032, 1.5e-5).unwrap()),
         highlight_knee: 0.9,
         ccm: [[1.5, -0.3, -0.2], [-0.2, 1.4, -0.2], [0.0, -0.4, 1.4]],
         tone: Tone {

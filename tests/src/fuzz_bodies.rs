@@ -121,13 +121,13 @@ pub fn isp_pipeline(data: &[u8]) {
     let mut v = f64s::<12>(rest);
     if head[11] & 1 == 0 {
         // Mostly sane values (raw bit patterns, odd half the time, rarely pass the checks):
-        // gain and WB in [0, 4), denoise in [0, 0.25), a lens about the frame's size.
+        // gain and WB in [0, 4), denoise in [0, 4), a lens about the frame's size.
         let unit = |x: f64| (x.to_bits() % 4096) as f64 / 4096.0;
         let size = w.max(h) as f64;
         v = [
             4.0 * unit(v[0]),
             4.0 * unit(v[1]),
-            0.25 * unit(v[2]),
+            4.0 * unit(v[2]),
             size * (0.2 + 2.0 * unit(v[3])),
             size * (0.2 + 2.0 * unit(v[4])),
             w as f64 * unit(v[5]),
@@ -160,7 +160,14 @@ pub fn isp_pipeline(data: &[u8]) {
         gain: gain as f32,
         wb_gains: [wb as f32, 1.0, 1.0],
         demosaic: method,
-        denoise: denoise as f32,
+        // Noise reduction filters whole 2x2 blocks: on frames of even sides (a run refuses
+        // odd ones, after the configuration validated).
+        denoise: if w % 2 == 0 && h % 2 == 0 {
+            denoise as f32
+        } else {
+            0.0
+        },
+        noise: isp_core::noise::NoiseProfile::uniform(0.004, 2e-5).ok(),
         // Every knee in [0, 1] in steps of 1/127, the top one off.
         highlight_knee: f32::from(head[11] >> 1) / 127.0,
         distortion: lens.filter(|_| head[10] & 1 == 1),

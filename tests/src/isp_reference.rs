@@ -8,6 +8,7 @@ use isp_core::distortion::LensDistortion;
 use isp_core::dpc::{Defect, DpcConfig};
 use isp_core::frame::{LinearFrame, RawFrame};
 use isp_core::lsc::LensShading;
+use isp_core::noise::NoiseProfile;
 use isp_core::pipeline::IspConfig;
 use isp_core::tone::Tone;
 use isp_core::CfaPattern;
@@ -129,6 +130,8 @@ pub struct Settings {
     /// See the pipeline docs.
     pub denoise: f32,
     /// See the pipeline docs.
+    pub noise: Option<NoiseProfile>,
+    /// See the pipeline docs.
     pub highlight_knee: f32,
     /// See the pipeline docs.
     pub ccm: [[f32; 3]; 3],
@@ -159,6 +162,7 @@ impl Settings {
             demosaic: self.method,
             distortion: self.distortion,
             denoise: self.denoise,
+            noise: self.noise,
             highlight_knee: self.highlight_knee,
             ccm: self.ccm,
             tone: self.tone,
@@ -175,6 +179,7 @@ impl Settings {
             gain: 1.0,
             wb: [1.0; 3],
             denoise: 0.0,
+            noise: None,
             highlight_knee: 1.0,
             ccm: isp_core::pipeline::IDENTITY,
             tone: Tone::default(),
@@ -361,29 +366,65 @@ fn undistort_reference(
     out
 }
 
-fn denoise_reference(rgb: &[[f64; 3]], w: usize, h: usize, t: f64) -> Vec<[f64; 3]> {
-    if t == 0.0 {
-        return rgb.to_vec();
-    }
-    let mut out = vec![[0.0; 3]; w * h];
-    for y in 0..h {
-        for x in 0..w {
-            let p = rgb[y * w + x];
-            let (mut sum, mut wsum) = ([0.0; 3], 0.0);
-            for dy in -1i64..=1 {
-                for dx in -1i64..=1 {
-                    let q = rgb[mirror(y as i64 + dy, h) * w + mirror(x as i64 + dx, w)];
-                    let d: f64 = (0..3).map(|c| (q[c] - p[c]).abs()).sum();
-                    let spatial =
-                        [1.0, 2.0, 1.0][(dx + 1) as usize] * [1.0, 2.0, 1.0][(dy + 1) as usize];
-                    let wgt = spatial * (1.0 - d / t).max(0.0);
-                    wsum += wgt;
-                    for c in 0..3 {
-                        sum[c] += wgt * q[c];
+/// Noise reduction from its documented semantics (the `denoise` module docs): non-local means
+/// over the mosaic packed into 2x2 blocks, in f64, on the normalised mosaic `x`.
+fn denoise_reference(x: &[f64], f: &Frame, profile: &NoiseProfile, strength: f64) -> Vec<f64> {
+    let (wp, hp) = (f.w / 2, f.h / 2);
+    let at = |r: i64, i: i64, k: usize| {
+        let (r, i) = (mirror(r, hp), mirror(i, wp));
+        x[(2 * r + k / 2) * f.w + 2 * i + k % 2]
+    };
+    let (scale, offset) = (profile.scale(), profile.offset());
+    let floor = 256.0 / (65535.0 * 65535.0);
+    let term: [(f64, f64); 4] = std::array::from_fn(|k| {
+        let c = f.pattern.colour_at(k % 2, k / 2).index();
+        (scale[c] as f64, offset[c] as f64)
+    });
+    // Inverse variances at every packed pixel and channel, from the 3x3 mean around it.
+    let inverse: Vec<[f64; 4]> = (0..hp * wp)
+        .map(|p| {
+            let (r, i) = ((p / wp) as i64, (p % wp) as i64);
+            std::array::from_fn(|k| {
+                let mut sum = 0.0;
+                for dr in -1..=1 {
+                    for di in -1..=1 {
+                        sum += at(r + dr, i + di, k);
+                    }
+                }
+                1.0 / (term[k].0 * sum / 9.0 + term[k].1).max(floor)
+            })
+        })
+        .collect();
+    let iv = |r: i64, i: i64, k: usize| inverse[mirror(r, hp) * wp + mirror(i, wp)][k];
+    let h = 0.8 * strength;
+    let mut out = x.to_vec();
+    for r in 0..hp as i64 {
+        for i in 0..wp as i64 {
+            let (mut num, mut den) = ([0.0; 4], 0.0);
+            for dy in -2..=2 {
+                for dx in -2..=2 {
+                    let mut distance = 0.0;
+                    for pr in -1..=1 {
+                        for pi in -1..=1 {
+                            let (qr, qi) = (r + pr, i + pi);
+                            for k in 0..4 {
+                                let d = at(qr + dy, qi + dx, k) - at(qr, qi, k);
+                                distance += d * d * iv(qr, qi, k);
+                            }
+                        }
+                    }
+                    let excess = (distance - 72.0).max(0.0);
+                    let u = (1.0 - excess / (8.0 * 72.0 * h * h)).max(0.0);
+                    let w = u.powi(8);
+                    den += w;
+                    for (k, n) in num.iter_mut().enumerate() {
+                        *n += w * at(r + dy, i + dx, k);
                     }
                 }
             }
-            out[y * w + x] = sum.map(|v| v / wsum);
+            for k in 0..4 {
+                out[(2 * r as usize + k / 2) * f.w + 2 * i as usize + k % 2] = num[k] / den;
+            }
         }
     }
     out
@@ -430,12 +471,27 @@ fn srgb_reference(x: f64) -> f64 {
 pub fn reference(f: &Frame, s: &Settings) -> Vec<[f64; 3]> {
     let raw = dpc_reference(f, s);
     let white = f.white as f64;
+    let normalised: Vec<f64> = (0..f.w * f.h)
+        .map(|i| {
+            let black = f.black[((i / f.w) % 2) * 2 + (i % f.w) % 2] as f64;
+            ((raw[i] as f64 - black).max(0.0) / (white - black)).clamp(0.0, 1.0)
+        })
+        .collect();
+    let denoised = match (&s.noise, s.denoise > 0.0) {
+        (Some(profile), true) => Some(denoise_reference(&normalised, f, profile, s.denoise as f64)),
+        _ => None,
+    };
     let mut m = vec![0.0; f.w * f.h];
     for y in 0..f.h {
         for x in 0..f.w {
             let black = f.black[(y % 2) * 2 + x % 2] as f64;
             let d = (raw[y * f.w + x] as f64 - black).max(0.0);
-            let mut v = (lsc_reference(s, x, y, f.w, f.h) * d / (white - black)).clamp(0.0, 1.0);
+            let shading = lsc_reference(s, x, y, f.w, f.h);
+            let mut v = match &denoised {
+                // Noise reduction runs on the clamped normalised sample, before shading.
+                Some(n) => (shading * n[y * f.w + x]).clamp(0.0, 1.0),
+                None => (shading * d / (white - black)).clamp(0.0, 1.0),
+            };
             v = (s.gain as f64 * v).min(1.0);
             v = (s.wb[f.colour(x, y)] as f64 * v).min(1.0);
             m[y * f.w + x] = v;
@@ -497,13 +553,12 @@ pub fn reference_linear(f: &LinearRef, s: &Settings) -> Vec<[f64; 3]> {
     finish_reference(rgb, f.w, f.h, s)
 }
 
-/// Distortion, denoise, CCM, tone and encoding of demosaiced RGB.
+/// Distortion, CCM, tone and encoding of demosaiced RGB.
 fn finish_reference(rgb: Vec<[f64; 3]>, w: usize, h: usize, s: &Settings) -> Vec<[f64; 3]> {
     let rgb = match &s.distortion {
         Some(lens) => undistort_reference(&rgb, w, h, lens),
         None => rgb,
     };
-    let rgb = denoise_reference(&rgb, w, h, s.denoise as f64);
     let encoded: Vec<[f64; 3]> = rgb
         .iter()
         .map(|p| {

@@ -10,6 +10,7 @@ use camsim_tests::isp_reference::{reference, Frame, Settings};
 use isp_core::demosaic::Method;
 use isp_core::distortion::{BrownConrady, LensDistortion};
 use isp_core::frame::{RawFrame, RgbViewMut};
+use isp_core::noise::NoiseProfile;
 use isp_core::pipeline::{FixedPipeline, FloatPipeline, IspConfig};
 use isp_core::tone::Look;
 use isp_core::CfaPattern;
@@ -119,7 +120,8 @@ fn fixed_path_agrees_with_float_over_kodak_and_mcmaster() {
                 let f = 0.9 * w as f64;
                 LensDistortion::new(f, f, w as f64 / 2.0, h as f64 / 2.0, model).unwrap()
             }),
-            denoise: [0.0, 0.02, 0.05][(i / 3) % 3],
+            denoise: [0.0, 1.0, 2.0][(i / 3) % 3],
+            noise: Some(NoiseProfile::uniform(0.0032, 1.2e-5).unwrap()),
             // The highlight stage at its default knee on two images in three.
             highlight_knee: [0.9, 1.0, 0.8][i % 3],
             ccm: if i % 2 == 0 {
@@ -146,7 +148,8 @@ fn directional_fixed_path_agrees_with_float_over_kodak_and_mcmaster() {
         demosaic: Method::Directional,
         wb_gains: [[1.0; 3], [1.4, 1.0, 1.2], [0.9, 1.0, 1.6]][i % 3],
         highlight_knee: [0.9, 1.0, 0.8][i % 3],
-        denoise: [0.0, 0.02][i % 2],
+        denoise: [0.0, 1.0][i % 2],
+        noise: Some(NoiseProfile::uniform(0.0032, 1.2e-5).unwrap()),
         ccm: CCM,
         tone: Look::ALL[i % Look::ALL.len()].tone(),
         dpc: isp_core::dpc::DpcConfig {
@@ -177,7 +180,8 @@ fn camsim_isp_reproduces_the_float_semantics_on_kodak() {
         wb = [1.3, 1, 1.15]
         ccm = [[1.5, -0.35, -0.15], [-0.2, 1.4, -0.2], [0.02, -0.4, 1.38]]
         demosaic = "bilinear"
-        denoise = 0.03
+        denoise = 1.5
+        noise-profile = [0.004, 2e-5]
         look = "vivid"
         sharpen = 0.6
         path = "float"
@@ -204,7 +208,8 @@ fn camsim_isp_reproduces_the_float_semantics_on_kodak() {
         gain: 1.1,
         wb: [1.3, 1.0, 1.15],
         ccm: [[1.5, -0.35, -0.15], [-0.2, 1.4, -0.2], [0.02, -0.4, 1.38]],
-        denoise: 0.03,
+        denoise: 1.5,
+        noise: Some(NoiseProfile::uniform(0.004, 2e-5).unwrap()),
         highlight_knee: camsim::develop::DEFAULT_HIGHLIGHT_KNEE,
         tone: Look::Vivid.tone(),
         sharpen: 0.6,

@@ -8,6 +8,7 @@ use isp_core::demosaic::Method;
 use isp_core::distortion::LensDistortion;
 use isp_core::dpc::Defect;
 use isp_core::frame::RgbViewMut;
+use isp_core::noise::NoiseProfile;
 use isp_core::pipeline::{FixedPipeline, FloatPipeline, IspConfig};
 use isp_core::tone::{Tone, ToneCurve};
 use isp_core::CfaPattern;
@@ -99,6 +100,8 @@ fn linear_case() -> impl Strategy<Value = (LinearRef, Settings, Vec<usize>)> {
         .prop_map(|((w, h, stride, bits), white, black, data, mut s, bands)| {
             s.defects.clear();
             s.threshold = None;
+            // Noise reduction runs on mosaics only.
+            s.denoise = 0.0;
             let f = LinearRef {
                 data,
                 w,
@@ -151,7 +154,16 @@ fn settings_strategy(w: usize, h: usize) -> impl Strategy<Value = Settings> {
             Just([1.0f32; 3]),
             (0.5f32..3.0, 0.8f32..1.2, 0.5f32..3.0).prop_map(|(a, b, c)| [a, b, c])
         ],
-        prop_oneof![Just(0.0f32), 0.01f32..0.3],
+        // Noise reduction filters whole 2x2 blocks: only on frames of even sides.
+        if w.is_multiple_of(2) && h.is_multiple_of(2) {
+            prop_oneof![
+                Just(None),
+                (0.25f32..4.0, 1e-4f32..0.02, 1e-7f32..1e-4).prop_map(Some)
+            ]
+            .boxed()
+        } else {
+            Just(None).boxed()
+        },
         prop_oneof![
             Just(isp_core::pipeline::IDENTITY),
             proptest::collection::vec(-0.6f32..0.6, 9).prop_map(|v| {
@@ -183,7 +195,7 @@ fn settings_strategy(w: usize, h: usize) -> impl Strategy<Value = Settings> {
                 nodes,
                 gain,
                 wb,
-                denoise,
+                nr,
                 ccm,
                 (sat, contrast, curve, method, distortion, highlight_knee, sharpen),
             )| {
@@ -203,7 +215,9 @@ fn settings_strategy(w: usize, h: usize) -> impl Strategy<Value = Settings> {
                     grid,
                     gain,
                     wb,
-                    denoise,
+                    denoise: nr.map_or(0.0, |(strength, _, _)| strength),
+                    noise: nr
+                        .map(|(_, scale, offset)| NoiseProfile::uniform(scale, offset).unwrap()),
                     highlight_knee,
                     ccm,
                     tone: Tone {
@@ -347,7 +361,8 @@ fn busy_settings() -> Settings {
         grid: Some((2, 2, vec![5000; 16])),
         gain: 1.5,
         wb: [2.0, 1.0, 1.6],
-        denoise: 0.05,
+        denoise: 1.0,
+        noise: Some(NoiseProfile::uniform(0.004, 2e-5).unwrap()),
         highlight_knee: 0.85,
         ccm: [[1.6, -0.4, -0.2], [-0.3, 1.5, -0.2], [0.0, -0.5, 1.5]],
         tone: isp_core::tone::Look::Vivid.tone(),
@@ -371,7 +386,16 @@ fn busy_settings() -> Settings {
 #[test]
 fn edge_frames_match_reference() {
     for pattern in CfaPattern::ALL {
-        for (w, h) in [(1, 1), (2, 2), (1, 5), (5, 1), (3, 3), (7, 5)] {
+        for (w, h) in [
+            (1, 1),
+            (2, 2),
+            (1, 5),
+            (5, 1),
+            (3, 3),
+            (7, 5),
+            (2, 4),
+            (6, 2),
+        ] {
             for (fill, black, white) in [
                 (0u16, 0u16, 4095u16),
                 (4095, 64, 4095),
@@ -399,7 +423,12 @@ fn edge_frames_match_reference() {
                     white,
                 };
                 assert_matches_reference(&f, &Settings::plain());
-                assert_matches_reference(&f, &busy_settings());
+                let mut busy = busy_settings();
+                if !w.is_multiple_of(2) || !h.is_multiple_of(2) {
+                    // Noise reduction filters whole 2x2 blocks (odd sides are refused).
+                    busy.denoise = 0.0;
+                }
+                assert_matches_reference(&f, &busy);
             }
         }
     }
@@ -444,7 +473,8 @@ fn flat_field_stays_flat_through_every_stage() {
     );
     variants.push(("distortion", s));
     let mut s = base.clone();
-    s.denoise = 0.2;
+    s.denoise = 2.0;
+    s.noise = Some(NoiseProfile::uniform(0.01, 1e-4).unwrap());
     variants.push(("denoise", s));
     let mut s = base.clone();
     s.ccm = busy_settings().ccm;
@@ -455,20 +485,27 @@ fn flat_field_stays_flat_through_every_stage() {
     let mut s = base.clone();
     s.sharpen = 2.0;
     variants.push(("sharpen", s));
-    variants.push(("all", busy_settings()));
+    let mut s = busy_settings();
+    s.denoise = 0.0;
+    variants.push(("all but denoise", s));
+    let mut s = busy_settings();
+    // The lens samples off this frame at its corners (black there).
+    s.distortion = None;
+    variants.push(("all but distortion", s));
     for pattern in CfaPattern::ALL {
-        let (w, h) = (9, 7);
-        let f = Frame {
-            data: vec![1000; w * h],
-            w,
-            h,
-            stride: w,
-            bits: 12,
-            pattern,
-            black: [200; 4],
-            white: 4000,
-        };
         for (name, s) in &variants {
+            // Noise reduction filters whole 2x2 blocks; odd sides elsewhere.
+            let (w, h) = if s.denoise > 0.0 { (10, 8) } else { (9, 7) };
+            let f = Frame {
+                data: vec![1000; w * h],
+                w,
+                h,
+                stride: w,
+                bits: 12,
+                pattern,
+                black: [200; 4],
+                white: 4000,
+            };
             for out in [run_float(&f, s, &[h]), run_fixed(&f, s, &[h])] {
                 assert!(
                     out.chunks(3).all(|p| p == &out[..3]),

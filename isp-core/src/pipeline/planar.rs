@@ -208,7 +208,7 @@ impl Planar for FixedPipeline<'_> {
     fn planar_takes<O: OutputSample>(&self, _raw: &RawFrame<'_>) -> bool {
         self.lsc.is_none()
             && self.distortion.is_none()
-            && self.inverse_denoise.is_none()
+            && self.denoise.is_none()
             && self.saturation_q.is_none()
             && self.tone_lut.is_none()
             && self.encode.max() == 255

@@ -119,14 +119,19 @@ fn pipeline_runs() -> bool {
     };
     let config = IspConfig {
         demosaic: isp_core::demosaic::Method::Mhc,
-        denoise: 0.05,
+        denoise: 1.0,
+        noise: match isp_core::noise::NoiseProfile::uniform(0.0032, 1.5e-5) {
+            Ok(profile) => Some(profile),
+            Err(_) => return false,
+        },
         highlight_knee: 0.9,
         ..IspConfig::default()
     };
     let Ok(pipeline) = FixedPipeline::new(&config, 8) else {
         return false;
     };
-    let mut scratch = [0u16; 14 * 8];
+    // 14 rows, plus noise reduction's packed rows, filtered pair and work (`scratch_len`).
+    let mut scratch = [0u16; 14 * 8 + 707];
     let mut rgb = [0u8; 96];
     let Ok(mut out) = RgbViewMut::new(&mut rgb, 8, 4, 24) else {
         return false;
