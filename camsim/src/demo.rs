@@ -15,7 +15,10 @@
 //! | `report.json`, `report.txt` | times, PSNR, ColorChecker CIE 2000 error, AWB error, CCT |
 //!
 //! The truth is scaled to the ISP's output: the scene's linear sRGB times the factor that makes
-//! a neutral under the scene illuminant come out of a perfect ISP at the same level.
+//! a neutral under the scene illuminant come out of a perfect ISP at the same level. Its 8-bit
+//! encoding (`truth.png`, the one PSNR is measured against) renders colours brighter than white
+//! as the ISP's highlight stage intends, faded to white (a light above white has no recorded
+//! colour); the EXR files keep the scene's values.
 //!
 //! This is library code: it reports each step through a callback and returns the report; the
 //! command line prints.
@@ -123,7 +126,7 @@ impl Default for DemoSettings {
             bits: 12,
             pattern: isp_core::CfaPattern::Rggb,
             awb: AwbMethod::WhitePatch { percentile: 99.0 },
-            demosaic: Method::Mhc,
+            demosaic: develop::DEFAULT_METHOD,
         }
     }
 }
@@ -379,7 +382,7 @@ pub struct Captured {
     pub defects: Vec<Defect>,
     /// The factory shading grid (17 x 13 nodes, Q4.12), if the sensor shades.
     pub shading_grid: Option<Vec<u16>>,
-    /// Whether the sensor adds noise (the demo then denoises a little).
+    /// Whether the sensor adds noise (the demo then reduces it, as its profile says).
     pub noisy: bool,
     /// The truth, linear sRGB on the ISP's output scale.
     pub truth_linear: Vec<f32>,
@@ -398,10 +401,11 @@ impl Captured {
         self.capture.raw.height
     }
 
-    /// The demo's ISP denoise strength: a little where the sensor is noisy.
+    /// The demo's noise-reduction strength: the profile's default (1) where the sensor is
+    /// noisy, off where it is not.
     pub fn default_denoise(&self) -> f32 {
         if self.noisy {
-            0.01
+            1.0
         } else {
             0.0
         }
@@ -422,6 +426,7 @@ impl Captured {
             wb_gains: self.awb.gains,
             demosaic,
             denoise,
+            noise: Some(self.capture.noise_profile),
             highlight_knee: develop::DEFAULT_HIGHLIGHT_KNEE,
             ccm: self.ccm,
             ..IspConfig::default()
@@ -583,9 +588,17 @@ pub fn capture(
             })
             .collect(),
     };
+    // Encoded as the ISP renders what it cannot record: a colour brighter than white fades to
+    // white by the highlight stage's rule (a perfect camera clips too, and a red light above
+    // white shown as pure red would only measure how far the scene is out of range).
     let truth8: Vec<u16> = truth_linear
-        .iter()
-        .map(|v| (isp_core::srgb::encode(v.clamp(0.0, 1.0)) * 255.0).round() as u16)
+        .chunks_exact(3)
+        .flat_map(|p| {
+            let rgb = [p[0], p[1], p[2]];
+            let top = rgb[0].max(rgb[1]).max(rgb[2]);
+            isp_core::highlights::neutralise_f32(rgb, top, develop::DEFAULT_HIGHLIGHT_KNEE)
+                .map(|v| (isp_core::srgb::encode(v.clamp(0.0, 1.0)) * 255.0).round() as u16)
+        })
         .collect();
     let defects = capture
         .defects
@@ -859,7 +872,7 @@ mod tests {
     fn defaults_are_the_command_lines() {
         let d = DemoSettings::default();
         assert_eq!(d.awb, AwbMethod::from_name("white-patch").unwrap());
-        assert_eq!(d.demosaic, "mhc".parse().unwrap());
+        assert_eq!(d.demosaic, "directional".parse().unwrap());
         assert_eq!(d.sensor.name(), "realistic");
     }
 

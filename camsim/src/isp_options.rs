@@ -12,7 +12,7 @@
 //! wb = [2.1, 1.0, 1.6]             # or: awb = "grey-world"
 //! ccm = [[1.6, -0.4, -0.2], [-0.3, 1.5, -0.2], [0.0, -0.5, 1.5]]
 //! demosaic = "mhc"
-//! denoise = 0.02
+//! denoise = 1.5                    # noise reduction, a multiplier on the profile's default (1); 0 is off
 //! noise-profile = [0.0032, 1.2e-5]  # var = S x + O (x: fraction of white above black); or six, S, O per R G B
 //! highlight-knee = 0.9             # clipped colour fades to neutral above it; 1 is off
 //! sharpen = 0.5                    # unsharp mask on luma, [0, 4]; 0 is off

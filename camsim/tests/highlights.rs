@@ -11,6 +11,10 @@ use camsim::isp_options::{CropChoice, IspOptions};
 /// whose 2x2 raw cell has a sample at the clip once gain and white balance are applied
 /// (clipped in the raw, or scaled past the clip by white balance): where the ratio of the
 /// channels, the colour, is lost.
+///
+/// Noise reduction is off: it runs before the gain, so it changes which samples the gain clips
+/// (a cell the noise pushed past the clip may come out of it unclipped, with its colour), and
+/// this measures the highlight stage on the cells the raw says are clipped.
 fn chroma_where_green_clipped(knee: f32) -> (f64, u16, usize) {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../data/real-dng/canon-550d-colorchart-14bit.dng");
@@ -21,6 +25,7 @@ fn chroma_where_green_clipped(knee: f32) -> (f64, u16, usize) {
         highlight_knee: Some(knee),
         crop: Some(CropChoice::Active),
         baseline_exposure: Some(false),
+        denoise: Some(0.0),
         ..IspOptions::default()
     };
     let (_, rgb) = develop(&input, &options, None, RunOptions::default()).unwrap();

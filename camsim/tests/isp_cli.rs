@@ -126,8 +126,8 @@ fn isp_writes_an_srgb_image_and_reports_stages_and_times() {
         assert!(ok, "{stderr}");
         assert!(
             stdout.contains(
-                "stages: black level -> white balance -> bilinear -> highlights -> sRGB encode"
-            ) || stdout.contains("stages: black level -> bilinear -> highlights -> sRGB encode"),
+                "stages: black level -> white balance -> directional -> highlights -> sRGB encode"
+            ) || stdout.contains("stages: black level -> directional -> highlights -> sRGB encode"),
             "{stdout}"
         );
         assert!(
@@ -243,7 +243,8 @@ gain = 1.25
 wb = [1.8, 1.0, 1.4]
 ccm = [[1.5, -0.3, -0.2], [-0.2, 1.4, -0.2], [0.0, -0.4, 1.4]]
 demosaic = "mhc"
-denoise = 0.02
+denoise = 1.5
+noise-profile = [0.004, 2e-5]
 dpc-threshold = 500
 look = "vivid"
 path = "fixed"
@@ -265,7 +266,7 @@ camera-matrix = [36.0, 36.0, 19.5, 14.5]
     ]);
     assert!(ok, "{stderr}");
     assert!(
-        stdout.contains("stages: black level -> defective pixels -> gain -> white balance -> mhc -> highlights -> distortion correction -> denoise -> colour matrix -> tone -> sRGB encode"),
+        stdout.contains("stages: black level -> defective pixels -> denoise -> gain -> white balance -> mhc -> highlights -> distortion correction -> colour matrix -> tone -> sRGB encode"),
         "{stdout}"
     );
     assert!(stdout.contains("path: fixed"), "{stdout}");
@@ -294,7 +295,9 @@ camera-matrix = [36.0, 36.0, 19.5, 14.5]
         "--demosaic",
         "mhc",
         "--denoise",
-        "0.02",
+        "1.5",
+        "--noise-profile",
+        "0.004,2e-5",
         "--dpc-threshold",
         "500",
         "--look",
@@ -371,7 +374,7 @@ gains = [[1.5, 1.5, 1.5, 1.5], [1.0, 1.0, 1.0, 1.0], [1.0, 1.0, 1.0, 1.0], [1.5,
     assert!(ok, "{stderr}");
     assert!(
         stdout.contains(
-            "stages: black level -> defective pixels -> lens shading -> bilinear -> highlights -> sRGB encode"
+            "stages: black level -> defective pixels -> lens shading -> directional -> highlights -> sRGB encode"
         ),
         "{stdout}"
     );

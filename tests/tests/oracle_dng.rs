@@ -267,9 +267,12 @@ fn real_dngs_develop_like_libraw() {
             .join(name);
         let input = RawInput::read(&path).unwrap();
         // LibRaw's framing, and no BaselineExposure (LibRaw does not apply it).
+        // LibRaw's development: bilinear (its linear interpolation), no noise reduction.
         let options = IspOptions {
             crop: Some(CropChoice::Active),
             baseline_exposure: Some(false),
+            demosaic: Some(isp_core::demosaic::Method::Bilinear),
+            denoise: Some(0.0),
             ..IspOptions::default()
         };
         let (_, ours) = develop(&input, &options, None, RunOptions::default()).unwrap();
@@ -462,6 +465,9 @@ proptest! {
         let options = IspOptions {
             crop: Some(CropChoice::Active),
             highlight_knee: Some(1.0),
+            // LibRaw's interpolation, and no noise reduction (LibRaw's default has none).
+            demosaic: Some(isp_core::demosaic::Method::Bilinear),
+            denoise: Some(0.0),
             ..IspOptions::default()
         };
         let (_, ours) = develop(&input, &options, None, RunOptions::default()).unwrap();
@@ -598,6 +604,9 @@ proptest! {
         let options = IspOptions {
             crop: Some(CropChoice::Active),
             highlight_knee: Some(1.0),
+            // LibRaw's interpolation, and no noise reduction (LibRaw's default has none).
+            demosaic: Some(isp_core::demosaic::Method::Bilinear),
+            denoise: Some(0.0),
             ..IspOptions::default()
         };
         let (report, rgb) = develop(&input, &options, None, RunOptions::default()).unwrap();

@@ -63,7 +63,7 @@ pub struct DemoArgs {
     #[arg(long, value_enum, default_value_t = AwbArg::WhitePatch)]
     pub awb: AwbArg,
     /// Demosaicing (the methods the pipeline runs).
-    #[arg(long, value_enum, default_value_t = PipelineDemosaicArg::Mhc)]
+    #[arg(long, value_enum, default_value_t = PipelineDemosaicArg::Directional)]
     pub demosaic: PipelineDemosaicArg,
     /// Print the JSON report instead of the readable one.
     #[arg(long)]

@@ -74,7 +74,7 @@ pub struct ProcessingArgs {
     /// Colour matrix, camera RGB to linear sRGB: nine numbers row by row [default: identity].
     #[arg(long, allow_hyphen_values = true)]
     pub ccm: Option<String>,
-    /// Demosaicing [default: bilinear]; directional is the best and the slowest.
+    /// Demosaicing [default: directional, the best; mhc and bilinear are faster].
     #[arg(long, value_enum)]
     pub demosaic: Option<PipelineDemosaicArg>,
     /// Lens distortion to correct: k1,k2,p1,p2 or k1,k2,p1,p2,k3 (OpenCV's order) [default: off].
@@ -84,7 +84,9 @@ pub struct ProcessingArgs {
     /// side, principal point at the centre].
     #[arg(long, allow_hyphen_values = true)]
     pub camera_matrix: Option<String>,
-    /// Denoise strength in linear units, [0, 1]; 0 is off [default: 0].
+    /// Noise reduction's strength, a multiplier on the default the noise profile sets: [0, 4],
+    /// 0 off [default: 1 for a mosaic with a noise profile (given, the file's, or estimated),
+    /// else 0]. Raw-domain non-local means, distances in units of the profile's variance.
     #[arg(long)]
     pub denoise: Option<f32>,
     /// The raw's noise profile: S,O for every colour, or S,O per colour R, G, B (six values),
