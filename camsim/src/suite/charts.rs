@@ -830,7 +830,7 @@ fn draw_failures(r: &SuiteResults, path: &Path) -> Drawn {
     let top = f.noise.iter().map(|q| stops(q.iso)).fold(1.0, f64::max);
     let mut chart = ChartBuilder::on(&panels[2])
         .caption(
-            "output noise against ISO (solid: no NR, dashed: NR 0.03)",
+            "output noise against ISO (solid: no NR, dashed: NR from the profile)",
             (FONT, 16),
         )
         .margin(12)
@@ -1044,4 +1044,115 @@ fn category_labels(names: Vec<&str>) -> impl Fn(&f64) -> String + '_ {
             String::new()
         }
     }
+}
+
+/// Chart 9: mean PSNR against the noise level for each noise reducer and the noisy
+/// development, and the mean of the two noisier levels against Mpix/s (log).
+pub fn denoise(d: &super::DenoiseSuite, caption: &str, path: &Path) -> Result<(), Error> {
+    draw_denoise(d, caption, path).map_err(failed(path))
+}
+
+fn draw_denoise(d: &super::DenoiseSuite, caption: &str, path: &Path) -> Drawn {
+    use super::denoise::SCALES;
+    let root = SVGBackend::new(path, (1300, 560)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let (_, height) = root.dim_in_pixel();
+    let (body, foot) = root.split_vertically(height - 28);
+    foot.draw(&Text::new(
+        caption.to_string(),
+        (10, 6),
+        (FONT, 13).into_font().color(&BLACK.mix(0.7)),
+    ))?;
+    let body = body.titled(
+        "Noise reduction on noisy 12-bit raws (Kodak, McMaster)",
+        (FONT, 22),
+    )?;
+    let panels = body.split_evenly((1, 2));
+    let summary = d.summary();
+    let (lo, hi) = summary
+        .iter()
+        .flat_map(|m| m.psnr_db)
+        .filter(|v| v.is_finite())
+        .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(v), b.max(v)));
+    let x_of = |s: f64| s.log2();
+    let mut chart = ChartBuilder::on(&panels[0])
+        .caption("mean PSNR against noise level", (FONT, 16))
+        .margin(12)
+        .x_label_area_size(42)
+        .y_label_area_size(56)
+        .build_cartesian_2d(
+            x_of(SCALES[0]) - 0.3..x_of(SCALES[2]) + 0.3,
+            lo - 1.0..hi + 1.0,
+        )?;
+    chart
+        .configure_mesh()
+        .x_desc("noise scale S (log; variance S x + O)")
+        .y_desc("PSNR (dB)")
+        .x_labels(9)
+        .x_label_formatter(&|v| {
+            SCALES
+                .iter()
+                .find(|s| (s.log2() - v).abs() < 0.2)
+                .map_or(String::new(), |s| format!("{s}"))
+        })
+        .y_label_formatter(&|v| format!("{v:.0}"))
+        .label_style((FONT, 11))
+        .draw()?;
+    for (i, m) in summary.iter().enumerate() {
+        let colour = PALETTE[i % PALETTE.len()];
+        let line: Vec<_> = SCALES
+            .iter()
+            .zip(m.psnr_db)
+            .filter(|p| p.1.is_finite())
+            .map(|(s, p)| (x_of(*s), p))
+            .collect();
+        chart
+            .draw_series(LineSeries::new(line.clone(), colour.stroke_width(2)))?
+            .label(m.method.clone())
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], colour.stroke_width(2)));
+        chart.draw_series(line.into_iter().map(|p| Circle::new(p, 3, colour.filled())))?;
+    }
+    legend(&mut chart, SeriesLabelPosition::UpperRight, 11)?;
+    let rated: Vec<_> = summary
+        .iter()
+        .enumerate()
+        .filter(|(_, m)| m.mpix_per_s.is_finite() && m.noisier_mean().is_finite())
+        .collect();
+    let (slow, fast) = rated
+        .iter()
+        .map(|(_, m)| m.mpix_per_s.log10())
+        .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(v), b.max(v)));
+    let (worst, best) = rated
+        .iter()
+        .map(|(_, m)| m.noisier_mean())
+        .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(v), b.max(v)));
+    let mut chart = ChartBuilder::on(&panels[1])
+        .caption(
+            "mean PSNR of the two noisier levels against speed",
+            (FONT, 16),
+        )
+        .margin(12)
+        .x_label_area_size(42)
+        .y_label_area_size(56)
+        .build_cartesian_2d(slow - 0.5..fast + 0.5, worst - 1.0..best + 1.0)?;
+    chart
+        .configure_mesh()
+        .x_desc("Mpix/s, one thread (log)")
+        .y_desc("PSNR (dB)")
+        .x_label_formatter(&|v| tick(10f64.powf(*v)))
+        .y_label_formatter(&|v| format!("{v:.1}"))
+        .label_style((FONT, 11))
+        .draw()?;
+    for (i, m) in rated {
+        let colour = PALETTE[i % PALETTE.len()];
+        let at = (m.mpix_per_s.log10(), m.noisier_mean());
+        chart.draw_series([Circle::new(at, 5, colour.filled())])?;
+        chart.draw_series([Text::new(
+            m.method.clone(),
+            (at.0, at.1),
+            (FONT, 11).into_font().color(&colour),
+        )])?;
+    }
+    root.present()?;
+    Ok(())
 }

@@ -8,6 +8,7 @@
 //! | [`pipeline`](PipelineSuite) | `pipeline.svg` | the whole ISP's Mpix/s against its output's PSNR on the rendered demo scene, each path, method and denoise strength, with a copy and OpenCV's pipeline |
 //! | [`fixed_vs_float`](FixedFloatSuite) | `fixed_vs_float.svg` | the whole pipeline's 8-bit output, fixed minus float, over the image sets as 12-bit raw; each path's throughput |
 //! | [`render`](RenderSuite) | `render.svg` | RMSE against wall time for camsim and Mitsuba 3 on the Cornell box, pinhole and thin lens; each camera feature's cost alone |
+//! | [`denoise`](DenoiseSuite) | `denoise.svg` | PSNR against noise level, and against Mpix/s, of camsim's profile-driven noise reduction (float and fixed) and OpenCV's and BM3D's on Kodak and McMaster as noisy 12-bit raws |
 //! | [`failures`](FailureSuite) | `failures.svg` | each demosaicing method's CPSNR and false colour against the zone plate's frequency; output noise against ISO, with and without noise reduction |
 //! | [`depth_of_field`](DofSuite) | `depth_of_field.svg` | the approximation 2u^2Nc/f^2 against the exact near/far limits over subject distance |
 //! | [`calibration`](CalibrationSuite) | `calibration.svg` | CIE 2000 error per ColorChecker patch of the 3x3 and root-polynomial fits, in-sample and held out, for each camera and illuminant |
@@ -21,9 +22,12 @@
 //! This is library code: progress goes through a callback, and nothing prints.
 
 mod charts;
+pub mod denoise;
 mod markdown;
 
-pub use markdown::{readme_blocks, summary, update_readme};
+pub use charts::denoise as denoise_chart;
+pub use denoise::{DenoisePoint, DenoiseSuite};
+pub use markdown::{denoise_table, readme_blocks, summary, update_readme};
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -146,6 +150,9 @@ pub struct SuiteResults {
     pub awb: AwbSuite,
     /// Chart 8.
     pub calibration: CalibrationSuite,
+    /// Chart 9 (absent from runs before it existed).
+    #[serde(default)]
+    pub denoise: DenoiseSuite,
     /// Why the peers did not run, if they did not.
     pub peers_skipped: Option<String>,
     /// Seconds the whole run took.
@@ -464,7 +471,7 @@ pub struct RenderSuite {
 }
 
 /// The files a run writes, in its folder.
-pub const FILES: [&str; 10] = [
+pub const FILES: [&str; 11] = [
     "bench.json",
     "summary.md",
     "demosaic_pareto.svg",
@@ -475,6 +482,7 @@ pub const FILES: [&str; 10] = [
     "depth_of_field.svg",
     "awb.svg",
     "calibration.svg",
+    "denoise.svg",
 ];
 
 /// Runs every suite, writes [`FILES`] into `settings.out` and returns the results.
@@ -485,6 +493,7 @@ pub fn run(settings: &SuiteSettings, progress: ProgressFn<'_>) -> Result<SuiteRe
     let mut peers_skipped = None;
     let demosaic = demosaic_suite(settings, &mut peers_skipped, progress)?;
     let pipeline = pipeline_suite(settings, &mut peers_skipped, progress)?;
+    let denoise = denoise::denoise_suite(settings, &mut peers_skipped, progress)?;
     let fixed_vs_float = fixed_float_suite(settings, progress)?;
     let render = render_suite(settings, &mut peers_skipped, progress)?;
     let failures = failure_suite(settings, progress)?;
@@ -505,6 +514,7 @@ pub fn run(settings: &SuiteSettings, progress: ProgressFn<'_>) -> Result<SuiteRe
         depth_of_field,
         awb,
         calibration,
+        denoise,
         peers_skipped,
         seconds: started.elapsed().as_secs_f64(),
     };
@@ -535,6 +545,13 @@ pub fn write_all(
     charts::depth_of_field(results, &out.join("depth_of_field.svg"))?;
     charts::awb(results, &out.join("awb.svg"))?;
     charts::calibration(results, &out.join("calibration.svg"))?;
+    if !results.denoise.points.is_empty() {
+        charts::denoise(
+            &results.denoise,
+            &caption(results),
+            &out.join("denoise.svg"),
+        )?;
+    }
     write("summary.md", &summary(results))
 }
 
@@ -632,7 +649,7 @@ const LEARNED_TILE: usize = 512;
 
 /// Runs `script` with the oracle Python and one JSON argument; its stdout parsed as JSON, or
 /// why it could not run.
-fn run_python<R: serde::de::DeserializeOwned>(
+pub(crate) fn run_python<R: serde::de::DeserializeOwned>(
     python: &Path,
     script: &str,
     request: &serde_json::Value,
@@ -744,8 +761,8 @@ struct DemosaicReply {
 /// warm RGB, and an RGB scene's truth assumes a white one.)
 const PIPELINE_SCENES: [(&str, &str, &str); 2] =
     [("demo, D65", "demo", "D65"), ("demo under A", "demo", "A")];
-/// Chart 2's denoise strengths.
-const DENOISE: [f32; 3] = [0.0, 0.01, 0.03];
+/// Chart 2's noise-reduction strengths (multipliers on the profile's default).
+const DENOISE: [f32; 3] = [0.0, 0.5, 1.0];
 
 fn pipeline_suite(
     settings: &SuiteSettings,
@@ -1016,6 +1033,8 @@ fn fixed_float_suite(
             highlight_knee: Some(1.0),
             sharpen: Some(sharpen),
             out_bits: Some(8),
+            // Issue 19's stages, which have no noise reduction.
+            denoise: Some(0.0),
             ..IspOptions::default()
         };
         let (ms, opencv) = with_prepared(&frame, &options, None, |p| {
@@ -1346,13 +1365,14 @@ fn failure_suite(
         progress(&format!("noise at ISO {iso}"));
         config.iso = iso;
         config.exposure_s = Some(base_exposure * 100.0 / iso);
-        let raw = capture(&camera_rgb, w, h, lens, &config)?.raw;
-        let input = Input::Mosaic(raw.frame()?);
+        let captured = capture(&camera_rgb, w, h, lens, &config)?;
+        let input = Input::Mosaic(captured.raw.frame()?);
         for method in methods {
-            for denoise in [0.0, 0.03] {
+            for denoise in [0.0, 1.0] {
                 let config = IspConfig {
                     demosaic: method,
                     denoise,
+                    noise: Some(captured.noise_profile),
                     ..IspConfig::default()
                 };
                 let mut out = vec![0u8; 3 * w * h];
@@ -1657,7 +1677,7 @@ fn civil_date(days_since_epoch: u64) -> String {
 }
 
 /// The caption every chart carries.
-fn caption(r: &SuiteResults) -> String {
+pub(crate) fn caption(r: &SuiteResults) -> String {
     format!(
         "{}{} on {}, {}",
         r.command,

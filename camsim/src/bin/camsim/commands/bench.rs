@@ -59,6 +59,24 @@ pub enum BenchCommand {
     /// pipeline of the same stages run through the oracle environment's Python
     /// ($CAMSIM_ORACLE_PYTHON, else .venv/bin/python).
     Isp(Box<BenchIspArgs>),
+    /// The noise-reduction suite alone: camsim's profile-driven noise reduction (float and
+    /// fixed) against OpenCV's fastNlMeansDenoisingColored and BM3D (CBM3D on the
+    /// development, BM3D per CFA plane of the raw) on Kodak and McMaster as noisy 12-bit raws,
+    /// every peer in the same run (the full `camsim bench` runs it too).
+    Denoise(BenchDenoiseArgs),
+}
+
+#[derive(Args)]
+pub struct BenchDenoiseArgs {
+    /// Folder for denoise.json, denoise.md and denoise.svg (created if missing).
+    #[arg(long, default_value = "camsim-bench-denoise")]
+    out: PathBuf,
+    /// Two image crops, no BM3D (which takes minutes per image): a smoke run.
+    #[arg(long)]
+    quick: bool,
+    /// Folder holding the kodak/ and mcmaster/ image sets.
+    #[arg(long, default_value = "data")]
+    data: PathBuf,
 }
 
 #[derive(Args)]
@@ -163,7 +181,58 @@ pub fn run(args: &BenchArgs) -> Result<String, Error> {
         BenchCommand::Render(args) => bench_render(args),
         BenchCommand::Dng(args) => bench_dng(args),
         BenchCommand::Isp(args) => bench_isp(args),
+        BenchCommand::Denoise(args) => bench_denoise(args),
     }
+}
+
+fn bench_denoise(args: &BenchDenoiseArgs) -> Result<String, Error> {
+    let command = std::iter::once("camsim".to_string())
+        .chain(std::env::args().skip(1))
+        .collect::<Vec<_>>()
+        .join(" ");
+    let settings = SuiteSettings {
+        out: args.out.clone(),
+        quick: args.quick,
+        data: args.data.clone(),
+        python: oracle_python(),
+        require_peers: std::env::var_os("CAMSIM_REQUIRE_ORACLE").is_some_and(|v| v == "1"),
+        learned_python: PathBuf::new(),
+        command: command.clone(),
+    };
+    std::fs::create_dir_all(&args.out).map_err(|e| raw_formats::FormatError::io(&args.out, e))?;
+    let mut progress = Progress::new("bench denoise");
+    let started = std::time::Instant::now();
+    let mut skipped = None;
+    let results = suite::denoise::denoise_suite(&settings, &mut skipped, &mut |what| {
+        progress.step(&format!(
+            "[{:5.1} s] {what}",
+            started.elapsed().as_secs_f64()
+        ))
+    })?;
+    progress.finish();
+    let caption = format!(
+        "{command} on {}, {}",
+        suite::Machine::this().describe(),
+        suite::today_utc()
+    );
+    let write = |name: &str, text: &str| {
+        let path = args.out.join(name);
+        std::fs::write(&path, text).map_err(|e| Error::from(raw_formats::FormatError::io(path, e)))
+    };
+    let json = serde_json::to_string_pretty(&results).map_err(|e| Error::Message(e.to_string()))?;
+    write("denoise.json", &(json + "\n"))?;
+    let table = suite::denoise_table(&results);
+    write(
+        "denoise.md",
+        &format!("# camsim bench denoise\n\n`{caption}`\n\n{table}"),
+    )?;
+    suite::denoise_chart(&results, &caption, &args.out.join("denoise.svg"))?;
+    let mut out = table;
+    if let Some(why) = skipped {
+        out += &format!("\nnote: the peers were skipped: {why}\n");
+    }
+    out += &format!("\nwritten: {}\n", args.out.display());
+    Ok(out)
 }
 
 /// What `camsim bench isp` measured.
