@@ -131,7 +131,11 @@ fn pipeline_runs() -> bool {
         return false;
     };
     // 14 rows, plus noise reduction's packed rows, filtered pair and work (`scratch_len`).
-    let mut scratch = [0u16; 14 * 8 + 707];
+    const NR: usize = 707;
+    if config.scratch_len(8, 4) != Some(14 * 8 + NR) {
+        return false;
+    }
+    let mut scratch = [0u16; 14 * 8 + NR];
     let mut rgb = [0u8; 96];
     let Ok(mut out) = RgbViewMut::new(&mut rgb, 8, 4, 24) else {
         return false;
@@ -143,7 +147,7 @@ fn pipeline_runs() -> bool {
     // Again with the directional method (its integer version; its rings take two u16 per
     // i32, plus one for alignment).
     const DIRECTIONAL: usize = match isp_core::demosaic::directional::scratch_len(8) {
-        Some(n) => 14 * 8 + 2 * n + 1,
+        Some(n) => 14 * 8 + 2 * n + 1 + NR,
         None => 0,
     };
     let directional = IspConfig {
@@ -184,7 +188,7 @@ fn pipeline_runs() -> bool {
     let Ok(pipeline) = FixedPipeline::new(&config, 8) else {
         return false;
     };
-    let mut scratch = [0u16; (14 + 3 * 4) * 8];
+    let mut scratch = [0u16; (14 + 3 * 4) * 8 + NR];
     if config.scratch_len(8, 4).is_none_or(|n| n > scratch.len()) {
         return false;
     }

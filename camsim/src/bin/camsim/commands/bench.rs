@@ -1,7 +1,7 @@
 //! `camsim bench demosaic` and `camsim bench render`: accuracy against speed, with progress on
 //! stderr.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use camsim::demosaic::{self, Demosaic};
 use camsim::suite::{self, SuiteSettings};
@@ -185,20 +185,28 @@ pub fn run(args: &BenchArgs) -> Result<String, Error> {
     }
 }
 
-fn bench_denoise(args: &BenchDenoiseArgs) -> Result<String, Error> {
-    let command = std::iter::once("camsim".to_string())
-        .chain(std::env::args().skip(1))
-        .collect::<Vec<_>>()
-        .join(" ");
-    let settings = SuiteSettings {
-        out: args.out.clone(),
-        quick: args.quick,
-        data: args.data.clone(),
+/// The suites' settings for a run into `out` from the environment: the oracle's Python,
+/// whether the peers are required (CI), the learned peer's Python and this command line.
+fn suite_settings(out: &Path, quick: bool, data: &Path) -> SuiteSettings {
+    SuiteSettings {
+        out: out.to_owned(),
+        quick,
+        data: data.to_owned(),
         python: oracle_python(),
         require_peers: std::env::var_os("CAMSIM_REQUIRE_ORACLE").is_some_and(|v| v == "1"),
-        learned_python: PathBuf::new(),
-        command: command.clone(),
-    };
+        learned_python: std::env::var_os("CAMSIM_LEARNED_PYTHON")
+            .map(PathBuf::from)
+            .unwrap_or_else(|| PathBuf::from(".venv-learned/bin/python")),
+        command: std::iter::once("camsim".to_string())
+            .chain(std::env::args().skip(1))
+            .collect::<Vec<_>>()
+            .join(" "),
+    }
+}
+
+fn bench_denoise(args: &BenchDenoiseArgs) -> Result<String, Error> {
+    let settings = suite_settings(&args.out, args.quick, &args.data);
+    let command = settings.command.clone();
     std::fs::create_dir_all(&args.out).map_err(|e| raw_formats::FormatError::io(&args.out, e))?;
     let mut progress = Progress::new("bench denoise");
     let started = std::time::Instant::now();
@@ -416,21 +424,7 @@ fn run_suites(args: &BenchArgs) -> Result<String, Error> {
             python.display()
         )));
     }
-    let command = std::iter::once("camsim".to_string())
-        .chain(std::env::args().skip(1))
-        .collect::<Vec<_>>()
-        .join(" ");
-    let settings = SuiteSettings {
-        out: args.out.clone(),
-        quick: args.quick,
-        data: args.data.clone(),
-        python: oracle_python(),
-        require_peers: std::env::var_os("CAMSIM_REQUIRE_ORACLE").is_some_and(|v| v == "1"),
-        learned_python: std::env::var_os("CAMSIM_LEARNED_PYTHON")
-            .map(PathBuf::from)
-            .unwrap_or_else(|| PathBuf::from(".venv-learned/bin/python")),
-        command,
-    };
+    let settings = suite_settings(&args.out, args.quick, &args.data);
     let mut progress = Progress::new("bench");
     let started = std::time::Instant::now();
     let results = suite::run(&settings, &mut |what| {
