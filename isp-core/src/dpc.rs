@@ -168,28 +168,31 @@ pub(crate) fn correct_span(
     let x1 = x0 + out.len();
     out.copy_from_slice(&mosaic.row(y)[x0..x1]);
     if let Some(threshold) = config.dynamic_threshold {
-        // Interior pixels of rows whose neighbourhood holds no static defect have all eight
-        // neighbours unmirrored: the vectorised detection below, then the general rule for
-        // the few it flags. Everything else takes the general rule directly.
+        // Interior pixels of rows with a same-colour row above and below have all eight
+        // neighbours unmirrored: the vectorised detection below, then the exact rule for the
+        // few it flags. Pixels within two columns of a static defect in rows y - 2 ..= y + 2
+        // (whose median leaves it out) and everything else take the general rule directly.
         let (w, h) = (mosaic.width(), mosaic.height());
-        let static_near = !config.static_defects.is_empty() && {
-            let first = config
-                .static_defects
-                .partition_point(|d| (d.y as usize) + 2 < y);
-            config
-                .static_defects
-                .get(first)
-                .is_some_and(|d| (d.y as usize) <= y + 2)
+        let near = {
+            let list = config.static_defects;
+            let first = list.partition_point(|d| (d.y as usize) + 2 < y);
+            let count = list[first..]
+                .iter()
+                .take_while(|d| (d.y as usize) <= y + 2)
+                .count();
+            &list[first..first + count]
         };
         // Rows with a same-colour row above and below (or its mirror about the pixel, by
         // the `mirror_about` that `neighbours` uses: row y + 2 stands for y - 2 in the top
-        // two rows, y - 2 for y + 2 in the bottom two) and no static defect near give every
-        // pixel eight usable neighbours (mirrored at the sides too): the interior columns
-        // lo..hi take the vectorised detection below, the pixels it flags and the two at
-        // each side `sorted8`. Everything else takes the general rule. (The top and bottom
-        // rows had taken it, a sort per pixel: 2 % of the float directional pipeline's time.)
+        // two rows, y - 2 for y + 2 in the bottom two) give every pixel eight usable
+        // neighbours (mirrored at the sides too) unless a static defect is among them: the
+        // interior columns lo..hi take the vectorised detection below, the pixels it flags
+        // and the two at each side `sorted8`. Everything else takes the general rule. (The
+        // top and bottom rows had taken it, a sort per pixel: 2 % of the float directional
+        // pipeline's time; so had every row near a static defect, which made a map of 200
+        // defects on a 5 Mpix frame cost 70 ns per pixel.)
         let rows = match (mirror_about(y, -2, h), mirror_about(y, 2, h)) {
-            (Some(above), Some(below)) if w >= 5 && !static_near => {
+            (Some(above), Some(below)) if w >= 5 => {
                 Some([mosaic.row(above), mosaic.row(y), mosaic.row(below)])
             }
             _ => None,
@@ -213,6 +216,13 @@ pub(crate) fn correct_span(
                     flags = [0; DETECT_BLOCK];
                 }
                 detect_interior(rows, start, threshold, &mut flags[..n]);
+                // Columns a static defect may be a neighbour of: the general rule, flagged 2.
+                for d in near {
+                    let dx = d.x as usize;
+                    for x in dx.saturating_sub(2).max(start)..(dx + 3).min(start + n) {
+                        flags[x - start] = GENERAL;
+                    }
+                }
                 // Eight flags at a time, visiting only the set ones: a loop testing each flag
                 // took a tenth of the whole pipeline's time (a load, a compare and a branch
                 // per pixel, for the few pixels flagged).
@@ -222,12 +232,18 @@ pub(crate) fn correct_span(
                 // pipeline's time).
                 let eights = n.div_ceil(8);
                 for (k, eight) in flags.as_chunks::<8>().0[..eights].iter().enumerate() {
-                    // Each flag is 0 or 1, so each set flag is one set bit.
+                    // Each flag is 0, 1 or GENERAL (2), so each set flag is one set bit.
                     let mut set = u64::from_le_bytes(*eight);
                     while set != 0 {
-                        let x = start + 8 * k + (set.trailing_zeros() / 8) as usize;
+                        let byte = (set.trailing_zeros() / 8) as usize;
+                        let x = start + 8 * k + byte;
                         set &= set - 1;
-                        if let Some(v) = fast_rule(rows, x) {
+                        let v = if eight[byte] == GENERAL {
+                            dynamic_replacement(raw, config, x, y, threshold)
+                        } else {
+                            fast_rule(rows, x)
+                        };
+                        if let Some(v) = v {
                             out[x - x0] = v;
                         }
                     }
@@ -237,8 +253,8 @@ pub(crate) fn correct_span(
         // The sides after the interior, whose loads have brought their columns into cache.
         for x in (x0..lo).chain(hi..x1) {
             let v = match rows {
-                Some(rows) => fast_rule(rows, x),
-                None => dynamic_replacement(raw, config, x, y, threshold),
+                Some(rows) if near.is_empty() => fast_rule(rows, x),
+                _ => dynamic_replacement(raw, config, x, y, threshold),
             };
             if let Some(v) = v {
                 out[x - x0] = v;
@@ -266,6 +282,10 @@ pub(crate) fn correct_span(
 
 /// Pixels the vectorised detection handles at a time.
 const DETECT_BLOCK: usize = 128;
+
+/// The detection's flag for a pixel that takes the general rule (a static defect may be
+/// among its neighbours).
+const GENERAL: u8 = 2;
 
 /// Flags (1, else 0) the pixels `x0..x0 + flags.len()` (all at least two from the sides)
 /// that dynamic detection would replace: above the second-largest of the eight same-colour

@@ -190,7 +190,9 @@ impl Settings {
     }
 }
 
-fn dpc_reference(f: &Frame, s: &Settings) -> Vec<u16> {
+/// Defect correction of the whole frame by its definition (isp-core's `dpc` module docs), row
+/// by row, `w` samples each.
+pub fn dpc_reference(f: &Frame, s: &Settings) -> Vec<u16> {
     let listed = |x: usize, y: usize| {
         s.defects
             .iter()

@@ -602,3 +602,48 @@ fn directional_fixed_path_tracks_float_on_random_frames() {
     );
     assert!(worst <= 64, "worst {worst} LSB");
 }
+
+/// A wide frame with many static defects and dynamic detection: every pixel, whichever rule
+/// the row's schedule gives it (the vectorised detection, the general rule near a listed
+/// pixel, the sides), is the definition's (`dpc_reference`).
+fn dpc_case() -> impl Strategy<Value = (Frame, Settings)> {
+    (130usize..300, 5usize..9, 0usize..4, 0u16..300).prop_flat_map(|(w, h, p, threshold)| {
+        (
+            proptest::collection::vec(prop_oneof![Just(4095u16), 900u16..1100, 0u16..=4095], w * h),
+            proptest::collection::btree_set((0..w as u16, 0..h as u16), 0..40),
+        )
+            .prop_map(move |(data, listed)| {
+                let frame = Frame {
+                    data,
+                    w,
+                    h,
+                    stride: w,
+                    bits: 12,
+                    pattern: CfaPattern::ALL[p],
+                    black: [0; 4],
+                    white: 4095,
+                };
+                let mut settings = Settings::plain();
+                settings.defects = listed.into_iter().map(|(x, y)| Defect { x, y }).collect();
+                settings.defects.sort();
+                settings.threshold = Some(threshold);
+                (frame, settings)
+            })
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    #[test]
+    fn defect_correction_near_static_defects_is_the_definition((f, s) in dpc_case()) {
+        let expected = camsim_tests::isp_reference::dpc_reference(&f, &s);
+        let raw = f.raw();
+        let config = s.config().dpc;
+        let mut row = vec![0u16; f.w];
+        for y in 0..f.h {
+            isp_core::dpc::correct_row(&raw, &config, y, &mut row).unwrap();
+            prop_assert_eq!(&row[..], &expected[y * f.w..(y + 1) * f.w], "row {}", y);
+        }
+    }
+}
