@@ -687,21 +687,12 @@ pub fn execute(
         Runner::new(&raw, &config, fixed, 16, threads)?.best_ms(&mut out, 1)?
     };
 
-    let steps = cumulative_steps(&config, linear);
     let stages = stage_names(&config, linear);
-    let mut stage_ms = Vec::new();
-    if run.stage_times {
-        let mut previous = 0.0;
-        let mut scratch_out = vec![0u8; w * h * 3];
-        for Step {
-            name, config: c, ..
-        } in &steps
-        {
-            let ms = Runner::new(&raw, c, fixed, 8, threads)?.best_ms(&mut scratch_out, 3)?;
-            stage_ms.push((*name, (ms - previous).max(0.0)));
-            previous = ms;
-        }
-    }
+    let stage_ms = if run.stage_times {
+        stage_times(&raw, &config, fixed, 8, threads, 3)?
+    } else {
+        Vec::new()
+    };
     let report = IspReport {
         stages,
         awb: None,
@@ -725,6 +716,41 @@ pub fn execute(
         data: out,
     };
     Ok((report, rgb))
+}
+
+/// Each stage's time by ablation, in pipeline order: the base (black level, demosaicing and
+/// encoding), then each stage that is on, as the best of `repeats` runs with it and every stage
+/// before it on, less the same for the stage before (at least 0: the pipeline is fused, so a
+/// cheap stage can vanish in the noise). Runs the pipeline once per stage, `repeats` times.
+pub fn stage_times(
+    raw: &Input<'_>,
+    config: &IspConfig<'_>,
+    fixed: bool,
+    out_bits: u8,
+    threads: usize,
+    repeats: u32,
+) -> Result<Vec<(&'static str, f64)>, IspError> {
+    let (w, h) = (raw.width(), raw.height());
+    let linear = matches!(raw, Input::Linear(_));
+    let mut times = Vec::new();
+    let mut previous = 0.0;
+    let (mut out8, mut out16) = (Vec::new(), Vec::new());
+    for Step {
+        name, config: c, ..
+    } in &cumulative_steps(config, linear)
+    {
+        let mut runner = Runner::new(raw, c, fixed, out_bits, threads)?;
+        let ms = if out_bits == 8 {
+            out8.resize(w * h * 3, 0u8);
+            runner.best_ms(&mut out8, repeats)?
+        } else {
+            out16.resize(w * h * 3, 0u16);
+            runner.best_ms(&mut out16, repeats)?
+        };
+        times.push((*name, (ms - previous).max(0.0)));
+        previous = ms;
+    }
+    Ok(times)
 }
 
 /// One stage that is on, for ablation: its name, whether it runs after demosaicing, and the

@@ -83,22 +83,37 @@ pub const fn packed_row_len(packed_width: usize) -> Option<usize> {
     }
 }
 
+/// Elements of one packed row's inverse variances ([`inverse_variance_row_f32`],
+/// [`inverse_variance_row_u16`]): four channels of `packed_width + 2` (one packed pixel beyond
+/// either side).
+pub const fn iv_row_len(packed_width: usize) -> Option<usize> {
+    match packed_width.checked_add(2) {
+        Some(wide) => wide.checked_mul(4),
+        None => None,
+    }
+}
+
 /// Working elements a filtered row needs (of the path's work type: `f32`, or `u64` for the
-/// fixed path): the inverse variances of three packed rows, one row of partial distances, and
-/// the weighted sums.
+/// fixed path) with its inverse variances: three rows of them ([`iv_row_len`]) and
+/// [`sums_len`].
 pub const fn work_len(packed_width: usize) -> Option<usize> {
-    // iv: 3 rows x 4 channels x (w + 2); vertical sums: w + 2; sums: 4 w; weights: w.
+    let (Some(iv), Some(sums)) = (iv_row_len(packed_width), sums_len(packed_width)) else {
+        return None;
+    };
+    match iv.checked_mul(3) {
+        Some(v) => v.checked_add(sums),
+        None => None,
+    }
+}
+
+/// Working elements [`filter_row_f32`] and [`filter_row_u16`] take: one row of partial
+/// distances (`packed_width + 2`) and the weighted sums (`5 * packed_width`).
+pub const fn sums_len(packed_width: usize) -> Option<usize> {
     let Some(wide) = packed_width.checked_add(2) else {
         return None;
     };
-    let Some(iv) = wide.checked_mul(12) else {
-        return None;
-    };
-    let Some(sums) = packed_width.checked_mul(5) else {
-        return None;
-    };
-    match iv.checked_add(wide) {
-        Some(v) => v.checked_add(sums),
+    match packed_width.checked_mul(5) {
+        Some(v) => v.checked_add(wide),
         None => None,
     }
 }
@@ -194,12 +209,16 @@ fn plane<T>(row: &[T], k: usize, stride: usize) -> &[T] {
     &row[k * stride..(k + 1) * stride]
 }
 
-/// Checks the rows, work and output of a filtered row; returns the padded stride.
+/// Checks the rows, inverse variances, work and output of a filtered row; returns the padded
+/// stride.
 fn check<T, W>(
-    rows: &[&[T]; PACKED_ROWS],
+    rows: &[&[T]],
+    iv: &[&[W]],
     packed_width: usize,
     work: &[W],
-    out: &[T],
+    work_needed: Option<usize>,
+    out_provided: usize,
+    out_len: Option<usize>,
 ) -> Result<usize, IspError> {
     let too_small = |needed: Option<usize>, provided: usize| IspError::BufferTooSmall {
         needed: needed.unwrap_or(usize::MAX),
@@ -209,64 +228,144 @@ fn check<T, W>(
     if let Some(short) = rows.iter().find(|r| Some(r.len()) != row_len) {
         return Err(too_small(row_len, short.len()));
     }
-    let need = work_len(packed_width);
-    if need.is_none_or(|n| work.len() < n) {
-        return Err(too_small(need, work.len()));
+    let iv_len = iv_row_len(packed_width);
+    if let Some(short) = iv.iter().find(|r| Some(r.len()) != iv_len) {
+        return Err(too_small(iv_len, short.len()));
     }
-    if out.len() != 4 * packed_width {
-        return Err(too_small(Some(4 * packed_width), out.len()));
+    if work_needed.is_none_or(|n| work.len() < n) {
+        return Err(too_small(work_needed, work.len()));
+    }
+    if Some(out_provided) != out_len {
+        return Err(too_small(out_len, out_provided));
     }
     Ok(packed_width + 2 * PAD)
 }
 
+/// The 3x3 sums of channel `k` around packed columns `-1 ..= packed_width` of the middle of
+/// `rows`, each passed to `emit(column + 1, sum)`, summed row by row, left to right (the
+/// float path's order, which its results depend on).
+#[inline(always)]
+fn box_sums<T: Copy, S: core::ops::Add<Output = S>>(
+    rows: &[&[T]; 3],
+    k: usize,
+    stride: usize,
+    wide: usize,
+    widen: impl Fn(T) -> S,
+    mut emit: impl FnMut(usize, S),
+) {
+    let [up, mid, down] = rows.map(|r| plane(r, k, stride));
+    for c in 0..wide {
+        // Padded column c - 1 is index PAD + c - 1; its 3x3 neighbours start one left.
+        let s = PAD + c - 2;
+        let row = |r: &[T], sum: S| sum + widen(r[s]) + widen(r[s + 1]) + widen(r[s + 2]);
+        let first = widen(up[s]) + widen(up[s + 1]) + widen(up[s + 2]);
+        emit(c, row(down, row(mid, first)));
+    }
+}
+
+/// The inverse variances `iv_k` of packed row `r` from `rows`, packed rows `r - 1 ..= r + 1`
+/// (reflected, [`packed_row_len`] each), at packed columns `-1 ..= packed_width`, into `out`
+/// ([`iv_row_len`]: four channels of `packed_width + 2`). The float path. Under reflect-101 a
+/// row's 3x3 neighbourhoods are its mirror's, so a row's inverse variances serve wherever it
+/// is reflected to: the engine keeps them in a ring, one row computed per packed row.
+pub fn inverse_variance_row_f32(
+    rows: [&[f32]; 3],
+    packed_width: usize,
+    params: &FloatParams,
+    out: &mut [f32],
+) -> Result<(), IspError> {
+    let stride = check::<_, f32>(
+        &rows,
+        &[],
+        packed_width,
+        &[],
+        Some(0),
+        out.len(),
+        iv_row_len(packed_width),
+    )?;
+    let wide = packed_width + 2;
+    for (k, dst) in out.chunks_exact_mut(wide).enumerate() {
+        box_sums(
+            &rows,
+            k,
+            stride,
+            wide,
+            |v| v,
+            |c, sum| {
+                let var = params.scale[k] * (sum * (1.0 / 9.0)) + params.offset[k];
+                dst[c] = 1.0 / var.max(VAR_FLOOR as f32);
+            },
+        );
+    }
+    Ok(())
+}
+
+/// As [`inverse_variance_row_f32`] in integers: `2^56 / var_q16`, at most `u32::MAX`.
+pub fn inverse_variance_row_u16(
+    rows: [&[u16]; 3],
+    packed_width: usize,
+    params: &FixedParams,
+    out: &mut [u64],
+) -> Result<(), IspError> {
+    let stride = check::<_, u64>(
+        &rows,
+        &[],
+        packed_width,
+        &[],
+        Some(0),
+        out.len(),
+        iv_row_len(packed_width),
+    )?;
+    let wide = packed_width + 2;
+    for (k, dst) in out.chunks_exact_mut(wide).enumerate() {
+        box_sums(&rows, k, stride, wide, u64::from, |c, sum| {
+            // At least 2^24 with the floor, so the quotient is at most 2^32.
+            let var = (params.slope_q16[k] * sum + params.offset_q16[k]).max(FLOOR_Q16);
+            dst[c] = ((1u64 << 56) / var).min(u64::from(u32::MAX));
+        });
+    }
+    Ok(())
+}
+
 /// Filters packed row `j` from `rows`, packed rows `j - 3 ..= j + 3` (reflected by the
-/// caller; each [`packed_row_len`] long, reflected [`PAD`] packed pixels either side), into
-/// `out`: four planes of `packed_width` samples, CFA position by position (row-major in the
-/// 2x2 block). The float path.
+/// caller; each [`packed_row_len`] long, reflected [`PAD`] packed pixels either side), and
+/// `iv`, the inverse variances of packed rows `j - 1 ..= j + 1` ([`inverse_variance_row_f32`]),
+/// into `out`: four planes of `packed_width` samples, CFA position by position (row-major in
+/// the 2x2 block). `work` holds [`sums_len`] elements. The float path.
 pub fn filter_row_f32(
     rows: [&[f32]; PACKED_ROWS],
+    iv: [&[f32]; 3],
     packed_width: usize,
     params: &FloatParams,
     work: &mut [f32],
     out: &mut [f32],
 ) -> Result<(), IspError> {
-    let stride = check(&rows, packed_width, work, out)?;
+    let stride = check(
+        &rows,
+        &iv,
+        packed_width,
+        work,
+        sums_len(packed_width),
+        out.len(),
+        packed_width.checked_mul(4),
+    )?;
     let wide = packed_width + 2;
-    let (iv, rest) = work.split_at_mut(12 * wide);
-    let (vsum, rest) = rest.split_at_mut(wide);
+    let (vsum, rest) = work.split_at_mut(wide);
     let (num, rest) = rest.split_at_mut(4 * packed_width);
     let den = &mut rest[..packed_width];
-    // Inverse variances of patch rows j - 1 ..= j + 1 (rows 2..=4), columns -1 ..= w.
-    for t in 0..3 {
-        for k in 0..4 {
-            let [up, mid, down] = [t + 1, t + 2, t + 3].map(|r| plane(rows[r], k, stride));
-            let dst = &mut iv[(t * 4 + k) * wide..(t * 4 + k + 1) * wide];
-            for (c, v) in dst.iter_mut().enumerate() {
-                // Padded column c - 1 is index PAD + c - 1; its 3x3 neighbours start one left.
-                let s = PAD + c - 2;
-                let sum: f32 = up[s..s + 3]
-                    .iter()
-                    .chain(&mid[s..s + 3])
-                    .chain(&down[s..s + 3])
-                    .sum();
-                let var = params.scale[k] * (sum * (1.0 / 9.0)) + params.offset[k];
-                *v = 1.0 / var.max(VAR_FLOOR as f32);
-            }
-        }
-    }
     num.fill(0.0);
     den.fill(0.0);
     for dy in -(SEARCH_RADIUS as isize)..=SEARCH_RADIUS as isize {
         for dx in -(SEARCH_RADIUS as isize)..=SEARCH_RADIUS as isize {
             // Column sums over the patch rows of the normalised squared differences.
             vsum.fill(0.0);
-            for t in 0..3 {
+            for (t, iv_row) in iv.iter().enumerate() {
                 let (r, n) = (t + 2, (t as isize + 2 + dy) as usize);
                 for k in 0..4 {
                     let here = &plane(rows[r], k, stride)[PAD - 1..PAD + 1 + packed_width];
                     let s = (PAD as isize - 1 + dx) as usize;
                     let there = &plane(rows[n], k, stride)[s..s + wide];
-                    let inv = &iv[(t * 4 + k) * wide..(t * 4 + k + 1) * wide];
+                    let inv = plane(iv_row, k, wide);
                     for (((v, a), b), i) in vsum.iter_mut().zip(here).zip(there).zip(inv) {
                         let d = b - a;
                         *v += d * d * i;
@@ -300,38 +399,29 @@ pub fn filter_row_f32(
     Ok(())
 }
 
-/// As [`filter_row_f32`] in integers: samples `u16` (65535 = 1.0), work `u64`.
+/// As [`filter_row_f32`] in integers: samples `u16` (65535 = 1.0), inverse variances from
+/// [`inverse_variance_row_u16`], work `u64`.
 pub fn filter_row_u16(
     rows: [&[u16]; PACKED_ROWS],
+    iv: [&[u64]; 3],
     packed_width: usize,
     params: &FixedParams,
     work: &mut [u64],
     out: &mut [u16],
 ) -> Result<(), IspError> {
-    let stride = check(&rows, packed_width, work, out)?;
+    let stride = check(
+        &rows,
+        &iv,
+        packed_width,
+        work,
+        sums_len(packed_width),
+        out.len(),
+        packed_width.checked_mul(4),
+    )?;
     let wide = packed_width + 2;
-    let (iv, rest) = work.split_at_mut(12 * wide);
-    let (vsum, rest) = rest.split_at_mut(wide);
+    let (vsum, rest) = work.split_at_mut(wide);
     let (num, rest) = rest.split_at_mut(4 * packed_width);
     let den = &mut rest[..packed_width];
-    for t in 0..3 {
-        for k in 0..4 {
-            let [up, mid, down] = [t + 1, t + 2, t + 3].map(|r| plane(rows[r], k, stride));
-            let dst = &mut iv[(t * 4 + k) * wide..(t * 4 + k + 1) * wide];
-            for (c, v) in dst.iter_mut().enumerate() {
-                let s = PAD + c - 2;
-                let sum: u64 = up[s..s + 3]
-                    .iter()
-                    .chain(&mid[s..s + 3])
-                    .chain(&down[s..s + 3])
-                    .map(|&v| u64::from(v))
-                    .sum();
-                // At least 2^24 with the floor, so the quotient is at most 2^32.
-                let var = (params.slope_q16[k] * sum + params.offset_q16[k]).max(FLOOR_Q16);
-                *v = ((1u64 << 56) / var).min(u64::from(u32::MAX));
-            }
-        }
-    }
     num.fill(0);
     den.fill(0);
     let floor = (2 * 36) << DISTANCE_BITS;
@@ -340,17 +430,19 @@ pub fn filter_row_u16(
     for dy in -(SEARCH_RADIUS as isize)..=SEARCH_RADIUS as isize {
         for dx in -(SEARCH_RADIUS as isize)..=SEARCH_RADIUS as isize {
             vsum.fill(0);
-            for t in 0..3 {
+            for (t, iv_row) in iv.iter().enumerate() {
                 let (r, n) = (t + 2, (t as isize + 2 + dy) as usize);
                 for k in 0..4 {
                     let here = &plane(rows[r], k, stride)[PAD - 1..PAD + 1 + packed_width];
                     let s = (PAD as isize - 1 + dx) as usize;
                     let there = &plane(rows[n], k, stride)[s..s + wide];
-                    let inv = &iv[(t * 4 + k) * wide..(t * 4 + k + 1) * wide];
+                    let inv = plane(iv_row, k, wide);
                     for (((v, &a), &b), &i) in vsum.iter_mut().zip(here).zip(there).zip(inv) {
-                        // d^2 < 2^32 and i < 2^32: the product fits.
-                        let d = u64::from(a.abs_diff(b));
-                        *v += (d * d * i) >> (40 - DISTANCE_BITS);
+                        // d^2 < 2^32 and i < 2^32 (so `as u32` keeps it): one 32 x 32 -> 64
+                        // bit product, which vectorises (`pmuludq`), where a 64-bit product
+                        // of `u64` operands did not.
+                        let d = u32::from(a.abs_diff(b));
+                        *v += (u64::from(d * d) * u64::from(i as u32)) >> (40 - DISTANCE_BITS);
                     }
                 }
             }
@@ -452,9 +544,17 @@ mod tests {
             let xp = FixedParams::new(&profile, CfaPattern::Rggb, 1.0).unwrap();
             let mut fw = [0.0f32; 1024];
             let mut uw = [0u64; 1024];
+            let (mut fi, mut ui) = ([[0.0f32; 4 * 34]; 3], [[0u64; 4 * 34]; 3]);
+            for t in 0..3 {
+                let f3 = core::array::from_fn(|d| &f[t + 1 + d][..]);
+                inverse_variance_row_f32(f3, wp, &fp, &mut fi[t]).unwrap();
+                let u3 = core::array::from_fn(|d| &u[t + 1 + d][..]);
+                inverse_variance_row_u16(u3, wp, &xp, &mut ui[t]).unwrap();
+            }
             let (mut fo, mut uo) = ([0.0f32; 128], [0u16; 128]);
             filter_row_f32(
                 core::array::from_fn(|t| &f[t][..]),
+                core::array::from_fn(|t| &fi[t][..]),
                 wp,
                 &fp,
                 &mut fw,
@@ -463,6 +563,7 @@ mod tests {
             .unwrap();
             filter_row_u16(
                 core::array::from_fn(|t| &u[t][..]),
+                core::array::from_fn(|t| &ui[t][..]),
                 wp,
                 &xp,
                 &mut uw,

@@ -497,10 +497,19 @@ trait Path {
     fn nr_params(&self, pattern: CfaPattern) -> Result<Option<Self::NrParams>, IspError>;
     /// Noise reduction's work in a part of this path's scratch.
     fn nr_work(part: &mut [Self::P]) -> &mut [Self::NrWork];
+    /// One packed row's inverse variances ([`denoise::inverse_variance_row_f32`] or
+    /// [`denoise::inverse_variance_row_u16`]).
+    fn nr_inverse_variance(
+        params: &Self::NrParams,
+        rows: [&[Self::P]; 3],
+        packed_width: usize,
+        out: &mut [Self::NrWork],
+    ) -> Result<(), IspError>;
     /// Filters one packed row ([`denoise::filter_row_f32`] or [`denoise::filter_row_u16`]).
     fn nr_filter(
         params: &Self::NrParams,
         rows: [&[Self::P]; denoise::PACKED_ROWS],
+        iv: [&[Self::NrWork]; 3],
         packed_width: usize,
         work: &mut [Self::NrWork],
         out: &mut [Self::P],
@@ -788,14 +797,24 @@ impl Path for FloatPipeline<'_> {
         part
     }
 
+    fn nr_inverse_variance(
+        params: &denoise::FloatParams,
+        rows: [&[f32]; 3],
+        packed_width: usize,
+        out: &mut [f32],
+    ) -> Result<(), IspError> {
+        denoise::inverse_variance_row_f32(rows, packed_width, params, out)
+    }
+
     fn nr_filter(
         params: &denoise::FloatParams,
         rows: [&[f32]; denoise::PACKED_ROWS],
+        iv: [&[f32]; 3],
         packed_width: usize,
         work: &mut [f32],
         out: &mut [f32],
     ) -> Result<(), IspError> {
-        denoise::filter_row_f32(rows, packed_width, params, work, out)
+        denoise::filter_row_f32(rows, iv, packed_width, params, work, out)
     }
 
     fn normalise_span(
@@ -1285,14 +1304,24 @@ impl Path for FixedPipeline<'_> {
         bytemuck::pod_align_to_mut::<u16, u64>(part).1
     }
 
+    fn nr_inverse_variance(
+        params: &denoise::FixedParams,
+        rows: [&[u16]; 3],
+        packed_width: usize,
+        out: &mut [u64],
+    ) -> Result<(), IspError> {
+        denoise::inverse_variance_row_u16(rows, packed_width, params, out)
+    }
+
     fn nr_filter(
         params: &denoise::FixedParams,
         rows: [&[u16]; denoise::PACKED_ROWS],
+        iv: [&[u64]; 3],
         packed_width: usize,
         work: &mut [u64],
         out: &mut [u16],
     ) -> Result<(), IspError> {
-        denoise::filter_row_u16(rows, packed_width, params, work, out)
+        denoise::filter_row_u16(rows, iv, packed_width, params, work, out)
     }
 
     fn normalise_span(
@@ -1543,6 +1572,10 @@ struct Denoiser<'s, A: Path> {
     pair_tag: usize,
     /// The filter's four output planes.
     filtered: &'s mut [A::P],
+    /// Inverse variances of three packed rows, packed row `r` in slot `r % 3` (a row's serve
+    /// wherever it is reflected to, so each is computed once).
+    iv_ring: &'s mut [A::NrWork],
+    iv_tags: [usize; 3],
     work: &'s mut [A::NrWork],
 }
 
@@ -1692,11 +1725,28 @@ impl<A: Path> Engine<'_, '_, A> {
                 nr.tags[slot] = r;
             }
             let ring: &[A::P] = nr.ring;
-            let rows = core::array::from_fn(|t| {
-                let slot = packed(t) % denoise::PACKED_ROWS;
+            let ring_row = |r: usize| {
+                let slot = r % denoise::PACKED_ROWS;
                 &ring[slot * len..(slot + 1) * len]
+            };
+            let iv_len = nr.iv_ring.len() / 3;
+            for t in 0..3 {
+                let r = reflect(j as isize + t as isize - 1, hp);
+                if nr.iv_tags[r % 3] != r {
+                    // Rows r - 1 ..= r + 1 are among the ring's j - 3 ..= j + 3.
+                    let rows = [-1isize, 0, 1].map(|d| ring_row(reflect(r as isize + d, hp)));
+                    let dst = &mut nr.iv_ring[(r % 3) * iv_len..(r % 3 + 1) * iv_len];
+                    A::nr_inverse_variance(&nr.params, rows, wp, dst)?;
+                    nr.iv_tags[r % 3] = r;
+                }
+            }
+            let iv_ring: &[A::NrWork] = nr.iv_ring;
+            let iv = [-1isize, 0, 1].map(|d| {
+                let slot = reflect(j as isize + d, hp) % 3;
+                &iv_ring[slot * iv_len..(slot + 1) * iv_len]
             });
-            A::nr_filter(&nr.params, rows, wp, nr.work, nr.filtered)?;
+            let rows = core::array::from_fn(|t| ring_row(packed(t)));
+            A::nr_filter(&nr.params, rows, iv, wp, nr.work, nr.filtered)?;
             for (py, row) in nr.pair.chunks_exact_mut(w).enumerate() {
                 let [left, right] =
                     [2 * py, 2 * py + 1].map(|k| &nr.filtered[k * wp..(k + 1) * wp]);
@@ -1989,6 +2039,8 @@ fn run_rows<A: Path, O: OutputSample>(
             let (ring, more) = denoise_scratch.split_at_mut(denoise::PACKED_ROWS * packed);
             let (pair, more) = more.split_at_mut(2 * w);
             let (filtered, more) = more.split_at_mut(2 * w);
+            let iv_len = denoise::iv_row_len(w / 2).ok_or(too_wide)?;
+            let (iv_ring, work) = A::nr_work(more).split_at_mut(3 * iv_len);
             Some(Denoiser {
                 params,
                 ring,
@@ -1996,7 +2048,9 @@ fn run_rows<A: Path, O: OutputSample>(
                 pair,
                 pair_tag: usize::MAX,
                 filtered,
-                work: A::nr_work(more),
+                iv_ring,
+                iv_tags: [usize::MAX; 3],
+                work,
             })
         }
         None => None,

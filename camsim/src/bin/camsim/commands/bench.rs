@@ -256,12 +256,21 @@ struct IspFigures {
     ms_per_frame: f64,
     mpix_per_s: f64,
     ns_per_pixel: f64,
+    /// Each stage's ns per pixel by ablation (the base: black level, demosaicing and encoding;
+    /// then each stage that is on, its run less the run without it), in pipeline order.
+    stage_ns_per_pixel: Vec<StageFigure>,
     /// A plain copy of the raw frame's bytes.
     copy: PeerFigures,
     /// The OpenCV pipeline, if the oracle environment ran it.
     opencv: Option<PeerFigures>,
     /// Why the OpenCV peer did not run, if it did not.
     peers_skipped: Option<String>,
+}
+
+#[derive(serde::Serialize)]
+struct StageFigure {
+    stage: &'static str,
+    ns_per_pixel: f64,
 }
 
 #[derive(serde::Serialize)]
@@ -307,6 +316,22 @@ fn bench_isp(args: &BenchIspArgs) -> Result<String, Error> {
         } else {
             runner.best_ms(&mut vec![0u16; w * h * 3], args.repeats)?
         };
+        progress.step("each stage, by ablation");
+        let pixels = (w * h) as f64;
+        let stage_ns_per_pixel = develop::stage_times(
+            &p.input,
+            &p.config,
+            p.fixed,
+            p.out_bits,
+            threads,
+            args.repeats,
+        )?
+        .into_iter()
+        .map(|(stage, ms)| StageFigure {
+            stage,
+            ns_per_pixel: ms * 1e6 / pixels,
+        })
+        .collect();
         progress.step("copy");
         let copy_ms = suite::copy_ms(&input.raw.samples, args.repeats);
         let copy = PeerFigures {
@@ -353,6 +378,7 @@ fn bench_isp(args: &BenchIspArgs) -> Result<String, Error> {
             ms_per_frame: ms,
             mpix_per_s: (w * h) as f64 / (ms * 1e3),
             ns_per_pixel: ms * 1e6 / (w * h) as f64,
+            stage_ns_per_pixel,
             copy,
             opencv,
             peers_skipped,
@@ -380,6 +406,12 @@ fn bench_isp(args: &BenchIspArgs) -> Result<String, Error> {
         f.ns_per_pixel,
         f.repeats
     );
+    out += "  each stage, by ablation (ns per pixel):";
+    for s in &f.stage_ns_per_pixel {
+        out += &format!(" {} {:.2};", s.stage, s.ns_per_pixel);
+    }
+    out.pop();
+    out += "\n";
     for peer in [Some(&f.copy), f.opencv.as_ref()].into_iter().flatten() {
         out += &format!(
             "  {:<60} {:9.2} ms: camsim takes {:.2}x its time\n",
