@@ -73,6 +73,14 @@ pub enum FormatError {
         /// What was wrong.
         problem: &'static str,
     },
+    /// A DCT JPEG stream (Compression 7's lossy form) is damaged or uses what this decoder
+    /// does not support.
+    DctJpeg {
+        /// Byte offset in the stream where it went wrong.
+        offset: usize,
+        /// What was wrong.
+        problem: &'static str,
+    },
     /// A lossy (baseline) JPEG stream is damaged or not what a DNG holds.
     LossyJpeg {
         /// What was wrong, as the decoder (`jpeg-decoder`) says.
@@ -187,10 +195,13 @@ impl fmt::Display for FormatError {
                 };
                 write!(
                     f,
-                    "Compression {value}{name} is not supported (1, uncompressed, 7, lossless JPEG, and 34892, lossy JPEG, are)"
+                    "Compression {value}{name} is not supported (1, uncompressed, 7, lossless or DCT JPEG, and 34892, lossy JPEG, are)"
                 )
             }
             Self::LossyJpeg { problem } => write!(f, "lossy JPEG: {problem}"),
+            Self::DctJpeg { offset, problem } => {
+                write!(f, "DCT JPEG: {problem} (at byte {offset} of the stream)")
+            }
             Self::LosslessJpeg { offset, problem } => {
                 write!(f, "lossless JPEG: {problem} (at byte {offset} of the stream)")
             }

@@ -12,6 +12,7 @@
 
 use isp_core::CfaPattern;
 
+use crate::dct_jpeg;
 use crate::dng::opcodes::{self, GainMap, Opcode, Region};
 use crate::dng::write::{long, short, srational};
 use crate::dng::{
@@ -73,6 +74,31 @@ pub fn lossless_jpeg_decode(data: &[u8]) {
         lossless_jpeg::decode(&bytes, &mut back).expect("the encoder's output decodes");
         assert_eq!(back, out);
     }
+}
+
+/// DCT JPEG streams (Compression 7's lossy form): any bytes are samples within the frame's
+/// precision or an error, never a panic or a hang; decoding twice gives the same samples.
+pub fn dct_jpeg_decode(data: &[u8]) {
+    let Ok(frame) = dct_jpeg::frame(data) else {
+        return;
+    };
+    // The DNG reader's bound: each 8x8 block costs at least two bits of the stream.
+    if frame.block_count() > data.len().saturating_mul(4) {
+        return;
+    }
+    let mut out = vec![0u16; frame.sample_count()];
+    let Ok(decoded) = dct_jpeg::decode(data, &mut out) else {
+        return;
+    };
+    assert_eq!(decoded, frame);
+    let max = (1u32 << decoded.precision) - 1;
+    assert!(
+        out.iter().all(|v| u32::from(*v) <= max),
+        "a sample above the precision"
+    );
+    let mut again = vec![0u16; out.len()];
+    dct_jpeg::decode(data, &mut again).expect("a stream that decoded decodes again");
+    assert_eq!(again, out);
 }
 
 /// A 20 x 12 frame (tiles of 16 leave partial tiles on both edges) with a gradient, noise and

@@ -22,6 +22,7 @@
 #![warn(missing_docs)]
 
 pub mod calibration;
+pub mod dct_jpeg;
 pub mod dng;
 mod error;
 pub mod exr;

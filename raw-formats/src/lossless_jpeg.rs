@@ -62,7 +62,7 @@ const LOOKUP_BITS: u32 = 10;
 
 /// A Huffman table of T.81 Annex C, with a look-up table for the short codes.
 #[derive(Clone)]
-struct Huffman {
+pub(crate) struct Huffman {
     /// By the next `LOOKUP_BITS` bits: `length << 8 | value`, or 0 for a longer code.
     lookup: Vec<u16>,
     /// Per code length 1..=16: the largest code of that length (-1 if none), and where its
@@ -74,7 +74,7 @@ struct Huffman {
 
 impl Huffman {
     /// From a DHT segment's 16 counts and its values; `at` is the segment's offset for errors.
-    fn new(counts: &[u8; 16], values: &[u8], at: usize) -> Result<Self> {
+    pub(crate) fn new(counts: &[u8; 16], values: &[u8], at: usize) -> Result<Self> {
         let mut lookup = vec![0u16; 1 << LOOKUP_BITS];
         let mut max_code = [-1i32; 17];
         let mut value_offset = [0i32; 17];
@@ -113,7 +113,7 @@ impl Huffman {
 
     /// The next value (a difference category); the reader holds at least 16 bits.
     #[inline(always)]
-    fn decode(&self, bits: &mut BitReader) -> Result<u8> {
+    pub(crate) fn decode(&self, bits: &mut BitReader) -> Result<u8> {
         let entry = self.lookup[bits.peek(LOOKUP_BITS) as usize];
         if entry != 0 {
             bits.consume(u32::from(entry >> 8));
@@ -138,7 +138,7 @@ impl Huffman {
 /// Reads entropy-coded bits most significant first, removing stuffed zero bytes (FF 00) and
 /// stopping at a marker: past it, it reads zeros and counts them, so running out of data is
 /// an error, not a read out of bounds.
-struct BitReader<'a> {
+pub(crate) struct BitReader<'a> {
     data: &'a [u8],
     pos: usize,
     acc: u64,
@@ -148,7 +148,7 @@ struct BitReader<'a> {
 }
 
 impl<'a> BitReader<'a> {
-    fn new(data: &'a [u8], pos: usize) -> Self {
+    pub(crate) fn new(data: &'a [u8], pos: usize) -> Self {
         Self {
             data,
             pos,
@@ -160,7 +160,7 @@ impl<'a> BitReader<'a> {
 
     /// Tops the buffer up to at least 57 bits.
     #[inline(always)]
-    fn refill(&mut self) {
+    pub(crate) fn refill(&mut self) {
         while self.count <= 56 {
             let mut byte = 0u8;
             match self.data.get(self.pos) {
@@ -195,7 +195,7 @@ impl<'a> BitReader<'a> {
     }
 
     #[inline(always)]
-    fn take(&mut self, n: u32) -> u32 {
+    pub(crate) fn take(&mut self, n: u32) -> u32 {
         if n == 0 {
             return 0;
         }
@@ -204,13 +204,18 @@ impl<'a> BitReader<'a> {
         v
     }
 
+    /// The byte the reader has read up to.
+    pub(crate) fn position(&self) -> usize {
+        self.pos
+    }
+
     /// Whether bits past the data's end were consumed: the scan was cut short.
-    fn overran(&self) -> bool {
+    pub(crate) fn overran(&self) -> bool {
         u64::from(self.padding) * 8 > u64::from(self.count)
     }
 
     /// At a restart: drops the interval's padding bits and steps over the marker `RSTn`.
-    fn restart(&mut self, n: u8) -> Result<()> {
+    pub(crate) fn restart(&mut self, n: u8) -> Result<()> {
         if self.overran() {
             return Err(error(self.pos, "scan data ends early"));
         }

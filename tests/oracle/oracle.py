@@ -339,6 +339,131 @@ def op_pidng_write(args, arrays):
     return {}, []
 
 
+def _wide_quant_tables(jpeg):
+    """The same JPEG with its quantisation tables stored with 16-bit entries (Pq = 1), as
+    Blackmagic cameras write them (LibRaw's DCT decoder reads only that form)."""
+    out = bytearray(jpeg[:2])
+    i = 2
+    while True:
+        if jpeg[i] != 0xFF:
+            raise ValueError("expected a marker")
+        marker, n = jpeg[i + 1], jpeg[i + 2] << 8 | jpeg[i + 3]
+        segment = jpeg[i + 4 : i + 2 + n]
+        if marker == 0xDB:
+            body, k = bytearray(), 0
+            while k < len(segment):
+                pq, tq = segment[k] >> 4, segment[k] & 15
+                entries = segment[k + 1 : k + 1 + 64 * (pq + 1)]
+                if pq == 0:
+                    body += bytes([0x10 | tq]) + b"".join(bytes([0, v]) for v in entries)
+                else:
+                    body += bytes([segment[k]]) + entries
+                k += 1 + 64 * (pq + 1)
+            out += bytes([0xFF, 0xDB]) + (len(body) + 2).to_bytes(2, "big") + body
+        else:
+            out += jpeg[i : i + 2 + n]
+        if marker == 0xDA:
+            return bytes(out + jpeg[i + 2 + n :])
+        i += 2 + n
+
+
+def _tiff_entry(tag, kind, values):
+    """One IFD entry's (tag, type, count, bytes), little-endian."""
+    import struct
+
+    packers = {1: "B", 2: "s", 3: "H", 4: "I", 5: "II", 10: "ii"}
+    if kind == 2:
+        data = values
+        count = len(values)
+    elif kind in (5, 10):
+        data = b"".join(struct.pack("<" + packers[kind], *v) for v in values)
+        count = len(values)
+    else:
+        data = b"".join(struct.pack("<" + packers[kind], v) for v in values)
+        count = len(values)
+    return tag, kind, count, data
+
+
+def op_dct_dng_write(args, arrays):
+    """args: path, tile (width, height; the height even), quality (libjpeg's 1..100), pattern
+    (CFA codes, 4 values), black, white. arrays[0]: the samples (H,W) u16, 12-bit. Writes a
+    CFA DNG as a Blackmagic camera writes its lossy CinemaDNG: Compression 7, each tile a
+    12-bit sequential DCT JPEG (SOF1, one component) two CFA rows per JPEG row, made by
+    libjpeg-turbo (imagecodecs) with its quantisation tables stored 16-bit. Edge tiles are
+    padded with zeros."""
+    import struct
+    import imagecodecs
+
+    samples = np.ascontiguousarray(arrays[0], dtype=np.uint16)
+    height, width = samples.shape
+    tile_w, tile_h = (int(v) for v in args["tile"])
+    tiles = []
+    for y in range(0, height, tile_h):
+        for x in range(0, width, tile_w):
+            tile = np.zeros((tile_h, tile_w), np.uint16)
+            part = samples[y : y + tile_h, x : x + tile_w]
+            tile[: part.shape[0], : part.shape[1]] = part
+            jpeg = imagecodecs.jpeg8_encode(
+                tile.reshape(tile_h // 2, 2 * tile_w), level=int(args["quality"]), bitspersample=12
+            )
+            tiles.append(_wide_quant_tables(jpeg))
+    colour = [0.9, -0.3, -0.1, -0.4, 1.3, 0.1, -0.1, 0.2, 0.6]
+    entries = [
+        _tiff_entry(254, 4, [0]),
+        _tiff_entry(256, 4, [width]),
+        _tiff_entry(257, 4, [height]),
+        _tiff_entry(258, 3, [12]),
+        _tiff_entry(259, 3, [7]),
+        _tiff_entry(262, 3, [32803]),
+        _tiff_entry(271, 2, b"oracle\0"),
+        _tiff_entry(272, 2, b"dct\0"),
+        _tiff_entry(274, 3, [1]),
+        _tiff_entry(277, 3, [1]),
+        _tiff_entry(284, 3, [1]),
+        _tiff_entry(322, 4, [tile_w]),
+        _tiff_entry(323, 4, [tile_h]),
+        _tiff_entry(324, 4, [0] * len(tiles)),
+        _tiff_entry(325, 4, [len(t) for t in tiles]),
+        _tiff_entry(33421, 3, [2, 2]),
+        _tiff_entry(33422, 1, [int(v) for v in args["pattern"]]),
+        _tiff_entry(50706, 1, [1, 4, 0, 0]),
+        _tiff_entry(50708, 2, b"oracle dct\0"),
+        _tiff_entry(50714, 4, [int(args["black"])]),
+        _tiff_entry(50717, 4, [int(args["white"])]),
+        _tiff_entry(50721, 10, [(round(v * 10000), 10000) for v in colour]),
+        _tiff_entry(50728, 5, [(1, 2), (1, 1), (2, 3)]),
+        _tiff_entry(50778, 3, [21]),
+    ]
+    # Header, IFD, then each value longer than 4 bytes, then the tiles (each word-aligned).
+    at = 8 + 2 + 12 * len(entries) + 4
+    placed = []
+    for tag, kind, count, data in entries:
+        if len(data) > 4:
+            placed.append(at)
+            at += len(data) + len(data) % 2
+        else:
+            placed.append(None)
+    tile_offsets = []
+    for t in tiles:
+        tile_offsets.append(at)
+        at += len(t) + len(t) % 2
+    out = bytearray(b"II*\0" + struct.pack("<IH", 8, len(entries)))
+    values = bytearray()
+    for (tag, kind, count, data), where in zip(entries, placed):
+        if tag == 324:
+            data = b"".join(struct.pack("<I", v) for v in tile_offsets)
+        if where is None:
+            out += struct.pack("<HHI", tag, kind, count) + data.ljust(4, b"\0")
+        else:
+            out += struct.pack("<HHII", tag, kind, count, where)
+            values += data + b"\0" * (len(data) % 2)
+    out += struct.pack("<I", 0) + values
+    for t in tiles:
+        out += t + b"\0" * (len(t) % 2)
+    pathlib.Path(args["path"]).write_bytes(bytes(out))
+    return {"tiles": len(tiles)}, []
+
+
 def op_image_read(args, arrays):
     """args: path of an image file. Returns what OpenCV reads, unchanged in depth: (H,W,3) in
     RGB order, or (H,W) for grey, as float64."""

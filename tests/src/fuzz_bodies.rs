@@ -281,4 +281,4 @@ pub fn scene_file(data: &[u8]) {
 
 /// DNG files: the body lives with the decoder in raw-formats, so the `dng_decode` fuzz target
 /// depends on that library alone; re-exported here for the replayed corpus and the suite.
-pub use raw_formats::fuzzing::{dng_decode, lossless_jpeg_decode, opcode_list};
+pub use raw_formats::fuzzing::{dct_jpeg_decode, dng_decode, lossless_jpeg_decode, opcode_list};

@@ -259,6 +259,7 @@ fn committed_corpus_replays_through_the_decoders() {
         ("dng_decode", dng_decode as fn(&[u8])),
         ("lossless_jpeg", lossless_jpeg_decode),
         ("opcode_list", opcode_list),
+        ("dct_jpeg", dct_jpeg_decode),
     ] {
         for entry in std::fs::read_dir(root.join(target)).expect("fuzz/seeds/TARGET exists") {
             let data = std::fs::read(entry.unwrap().path()).unwrap();
@@ -266,6 +267,9 @@ fn committed_corpus_replays_through_the_decoders() {
             let ok = match target {
                 "dng_decode" => raw_formats::dng::Dng::decode(&data).is_ok(),
                 "opcode_list" => raw_formats::dng::opcodes::parse(&data).is_ok(),
+                "dct_jpeg" => raw_formats::dct_jpeg::frame(&data).is_ok_and(|f| {
+                    raw_formats::dct_jpeg::decode(&data, &mut vec![0; f.sample_count()]).is_ok()
+                }),
                 _ => raw_formats::lossless_jpeg::frame(&data).is_ok_and(|f| {
                     raw_formats::lossless_jpeg::decode(&data, &mut vec![0; f.sample_count()])
                         .is_ok()
@@ -274,8 +278,52 @@ fn committed_corpus_replays_through_the_decoders() {
             decoded += usize::from(ok);
         }
     }
-    let seeds = raw_formats::fuzzing::seed_corpus().len();
+    // The generated seeds, the DCT JPEGs libjpeg-turbo wrote (three) and the lossy CinemaDNG.
+    let seeds = raw_formats::fuzzing::seed_corpus().len() + 4;
     assert!(decoded >= seeds, "{decoded} of the {seeds} seeds decode");
+}
+
+/// The committed DCT seeds: JPEGs and a lossy CinemaDNG that libjpeg-turbo wrote (through
+/// `tests/oracle/oracle.py`'s `dct_dng_write`), which camsim has no encoder to generate.
+fn written_dct_seeds() -> Vec<(&'static str, Vec<u8>)> {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz/seeds");
+    let mut seeds: Vec<(&'static str, Vec<u8>)> = std::fs::read_dir(root.join("dct_jpeg"))
+        .expect("fuzz/seeds/dct_jpeg")
+        .map(|e| ("dct_jpeg", std::fs::read(e.unwrap().path()).unwrap()))
+        .collect();
+    seeds.push((
+        "dng_decode",
+        std::fs::read(root.join("dng_decode/lossy-dct-cinemadng.dng")).unwrap(),
+    ));
+    seeds
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(2000))]
+
+    /// The DCT seeds with a few bytes changed, cut short, or with random bytes appended, never
+    /// break the decoders' contracts (an image or an error; no panic, no hang).
+    #[test]
+    fn damaged_dct_seeds_never_break_the_decoders(
+        pick in any::<prop::sample::Index>(),
+        changes in proptest::collection::vec((any::<prop::sample::Index>(), any::<u8>()), 1..6),
+        cut in any::<prop::sample::Index>(),
+        tail in proptest::collection::vec(any::<u8>(), 0..16),
+    ) {
+        let seeds = written_dct_seeds();
+        let (target, bytes) = &seeds[pick.index(seeds.len())];
+        let mut data = bytes.clone();
+        for (at, value) in &changes {
+            let i = at.index(data.len());
+            data[i] = *value;
+        }
+        let body = if *target == "dct_jpeg" { dct_jpeg_decode as fn(&[u8]) } else { dng_decode };
+        body(&data);
+        let mut short = bytes[..cut.index(bytes.len())].to_vec();
+        body(&short);
+        short.extend_from_slice(&tail);
+        body(&short);
+    }
 }
 
 proptest! {

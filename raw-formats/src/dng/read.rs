@@ -10,7 +10,7 @@ use super::tiff::{Ifd, Tiff};
 use super::{cfa_codes, ColourCalibration, Crop, Dng, DngColour, Framing, Illuminant};
 use super::{opcodes, Orientation, Processing, CALIBRATION_TAGS};
 use crate::error::{FormatError, Result};
-use crate::lossless_jpeg;
+use crate::{dct_jpeg, lossless_jpeg};
 
 /// What a NoiseProfile tag may hold.
 const NOISE_PROFILE_VALUES: &str =
@@ -23,7 +23,8 @@ enum Coding {
     /// Compression 1: `bits` per sample, most significant bit first, rows byte-aligned;
     /// 16-bit samples in the file's byte order.
     Uncompressed { bits: u32, little: bool },
-    /// Compression 7: a lossless JPEG per strip or tile.
+    /// Compression 7: a lossless JPEG per strip or tile, or a sequential DCT JPEG of one
+    /// component (Blackmagic's lossy CinemaDNG), told apart by its frame header.
     LosslessJpeg,
     /// Compression 34892: a baseline (lossy) JPEG of 8-bit samples per strip or tile, as
     /// Adobe's converter writes for lossy DNGs (its LinearizationTable restores linear values).
@@ -198,6 +199,24 @@ impl Tiff<'_> {
                 }
                 Ok(row_samples)
             }
+            Coding::LosslessJpeg if dct_jpeg::is_dct(bytes) => {
+                let frame = dct_jpeg::frame(bytes)?;
+                // Each 8x8 block costs at least two bits (its DC and end-of-block codes), so
+                // the bytes bound the count.
+                if frame.sample_count() != samples
+                    || frame.block_count() > bytes.len().saturating_mul(4)
+                {
+                    return Err(FormatError::SizeMismatch {
+                        what: "DCT JPEG samples in a strip or tile",
+                        found: frame.sample_count(),
+                        expected: samples,
+                    });
+                }
+                out.clear();
+                out.resize(samples, 0);
+                dct_jpeg::decode(bytes, out)?;
+                Ok(row_samples)
+            }
             Coding::LosslessJpeg => {
                 let frame = lossless_jpeg::frame(bytes)?;
                 // Each sample costs at least one bit, so the bytes bound the count.
@@ -289,11 +308,12 @@ impl Tiff<'_> {
         };
 
         // Each sample takes at least one bit of the file (a Huffman code per difference in
-        // lossless JPEG), or in lossy JPEG each 8x8 block of a component at least two (its DC
-        // and end-of-block codes): a header cannot claim more. (A smooth lossy file can hold
-        // well under a bit per sample; a clean-clone run found one.)
+        // lossless JPEG), or in lossy JPEG (Compression 34892, or 7 with a DCT frame) each 8x8
+        // block of a component at least two (its DC and end-of-block codes): a header cannot
+        // claim more. (A smooth lossy file can hold well under a bit per sample; a clean-clone
+        // run found one.) Each segment's decoder checks its own kind's bound.
         let total = width * height * spp;
-        let samples_per_bit = if matches!(coding, Coding::LossyJpeg) {
+        let samples_per_bit = if matches!(coding, Coding::LossyJpeg | Coding::LosslessJpeg) {
             32
         } else {
             1
