@@ -31,7 +31,7 @@
 //! ```
 
 use crate::error::{FormatError, Result};
-use crate::lossless_jpeg::{BitReader, Huffman};
+use crate::lossless_jpeg::{segment, BitReader, Huffman, Segment};
 
 /// A DCT JPEG frame's shape (its SOF0 or SOF1 header).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -61,7 +61,6 @@ fn error(offset: usize, problem: &'static str) -> FormatError {
 }
 
 const SOI: u8 = 0xd8;
-const EOI: u8 = 0xd9;
 const SOF0: u8 = 0xc0;
 const SOF1: u8 = 0xc1;
 const DHT: u8 = 0xc4;
@@ -90,21 +89,14 @@ fn first_frame_marker(data: &[u8]) -> Option<u8> {
     }
     let mut at = 2;
     loop {
-        while data.get(at) == Some(&0xff) && data.get(at + 1) == Some(&0xff) {
-            at += 1;
-        }
-        let (Some(&0xff), Some(&marker)) = (data.get(at), data.get(at + 1)) else {
-            return None;
-        };
-        match marker {
-            0xc0..=0xcf if marker != DHT && marker != 0xc8 && marker != 0xcc => {
-                return Some(marker)
+        let s = segment(data, at).ok()?;
+        match s.marker {
+            0xc0..=0xcf if s.marker != DHT && s.marker != 0xc8 && s.marker != 0xcc => {
+                return Some(s.marker)
             }
-            SOS | EOI => return None,
-            _ => {}
+            SOS => return None,
+            _ => at = s.next,
         }
-        let length = data.get(at + 2..at + 4)?;
-        at += 2 + usize::from(u16::from_be_bytes([length[0], length[1]]));
     }
 }
 
@@ -142,23 +134,13 @@ fn parse(data: &[u8], out: Option<&mut [u16]>) -> Result<Frame> {
         restart_interval: 0,
     };
     loop {
-        while data.get(at) == Some(&0xff) && data.get(at + 1) == Some(&0xff) {
-            at += 1;
-        }
-        let (Some(&0xff), Some(&marker)) = (data.get(at), data.get(at + 1)) else {
-            return Err(error(at, "expected a marker"));
-        };
-        if marker == EOI {
-            return Err(error(at, "no scan before the end of the image"));
-        }
-        let length = data
-            .get(at + 2..at + 4)
-            .map(|b| usize::from(u16::from_be_bytes([b[0], b[1]])))
-            .ok_or(error(at, "marker segment cut short"))?;
-        let body = data
-            .get(at + 4..(at + 2 + length).max(at + 4))
-            .filter(|_| length >= 2)
-            .ok_or(error(at, "marker segment cut short"))?;
+        let Segment {
+            at: marker_at,
+            marker,
+            body,
+            next,
+        } = segment(data, at).map_err(|(at, problem)| error(at, problem))?;
+        at = marker_at;
         match marker {
             SOF0 | SOF1 => {
                 let f = frame_header(body, at)?;
@@ -191,7 +173,7 @@ fn parse(data: &[u8], out: Option<&mut [u16]>) -> Result<Frame> {
             // APPn, COM, DNL and the like carry nothing the decoder needs.
             _ => {}
         }
-        at += 2 + length;
+        at = next;
     }
 }
 

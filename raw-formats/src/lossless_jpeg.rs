@@ -352,6 +352,50 @@ impl Scan<'_> {
     }
 }
 
+/// One marker segment of a JPEG stream.
+pub(crate) struct Segment<'a> {
+    /// Where its marker is.
+    pub(crate) at: usize,
+    pub(crate) marker: u8,
+    /// What its length covers, after the length.
+    pub(crate) body: &'a [u8],
+    /// Where the next marker is expected.
+    pub(crate) next: usize,
+}
+
+/// The marker segment at `at` (after any fill bytes, FF), shared by the lossless and DCT
+/// decoders; an error is its offset and problem. An EOI before the scan is an error: every
+/// caller wants a scan.
+pub(crate) fn segment(
+    data: &[u8],
+    mut at: usize,
+) -> core::result::Result<Segment<'_>, (usize, &'static str)> {
+    // Markers may be preceded by fill bytes (FF).
+    while data.get(at) == Some(&0xff) && data.get(at + 1) == Some(&0xff) {
+        at += 1;
+    }
+    let (Some(&0xff), Some(&marker)) = (data.get(at), data.get(at + 1)) else {
+        return Err((at, "expected a marker"));
+    };
+    if marker == EOI {
+        return Err((at, "no scan before the end of the image"));
+    }
+    let length = data
+        .get(at + 2..at + 4)
+        .map(|b| usize::from(u16::from_be_bytes([b[0], b[1]])))
+        .ok_or((at, "marker segment cut short"))?;
+    let body = data
+        .get(at + 4..(at + 2 + length).max(at + 4))
+        .filter(|_| length >= 2)
+        .ok_or((at, "marker segment cut short"))?;
+    Ok(Segment {
+        at,
+        marker,
+        body,
+        next: at + 2 + length,
+    })
+}
+
 /// Reads the frame header without decoding: the shape the decoded samples will have.
 pub fn frame(data: &[u8]) -> Result<Frame> {
     parse(data, None).map(|(frame, _)| frame)
@@ -374,24 +418,14 @@ fn parse(data: &[u8], out: Option<&mut [u16]>) -> Result<(Frame, usize)> {
     let mut tables: [Option<Huffman>; 4] = [None, None, None, None];
     let mut restart_interval = 0usize;
     loop {
-        // Markers may be preceded by fill bytes (FF).
-        while data.get(at) == Some(&0xff) && data.get(at + 1) == Some(&0xff) {
-            at += 1;
-        }
-        let (Some(&0xff), Some(&marker)) = (data.get(at), data.get(at + 1)) else {
-            return Err(error(at, "expected a marker"));
-        };
-        if marker == EOI {
-            return Err(error(at, "no scan before the end of the image"));
-        }
-        let length = data
-            .get(at + 2..at + 4)
-            .map(|b| usize::from(u16::from_be_bytes([b[0], b[1]])))
-            .ok_or(error(at, "marker segment cut short"))?;
-        let body = data
-            .get(at + 4..(at + 2 + length).max(at + 4))
-            .filter(|_| length >= 2)
-            .ok_or(error(at, "marker segment cut short"))?;
+        let Segment {
+            at: marker_at,
+            marker,
+            body,
+            next,
+        } = segment(data, at).map_err(|(at, problem)| error(at, problem))?;
+        at = marker_at;
+        let length = next - at - 2;
         match marker {
             SOF3 => {
                 if body.len() < 6 {

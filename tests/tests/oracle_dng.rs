@@ -257,7 +257,7 @@ fn real_blackmagic_lossless_jpeg_dng_decodes_to_libraws_visible_raw() {
 #[test]
 fn real_dngs_develop_like_libraw() {
     use camsim::develop::{develop, RawInput, RunOptions};
-    use camsim::isp_options::{CropChoice, IspOptions};
+    use camsim::isp_options::IspOptions;
     for (name, least_db) in [
         ("canon-550d-colorchart-14bit.dng", 35.0),
         ("blackmagic-pocket-gbrg-lj92.dng", 35.0),
@@ -266,25 +266,10 @@ fn real_dngs_develop_like_libraw() {
             .join("../data/real-dng")
             .join(name);
         let input = RawInput::read(&path).unwrap();
-        // LibRaw's framing, and no BaselineExposure (LibRaw does not apply it).
-        // LibRaw's development: bilinear (its linear interpolation), no noise reduction.
-        let options = IspOptions {
-            crop: Some(CropChoice::Active),
-            baseline_exposure: Some(false),
-            demosaic: Some(isp_core::demosaic::Method::Bilinear),
-            denoise: Some(0.0),
-            ..IspOptions::default()
+        let Some((ours, psnr)) = develop_like_libraw(&path) else {
+            return;
         };
-        let (_, ours) = develop(&input, &options, None, RunOptions::default()).unwrap();
-        let reply = oracle_arrays(
-            "rawpy_develop",
-            serde_json::json!({"path": path.to_str().unwrap()}),
-            &[],
-        );
-        let Some(arrays) = reply else { return };
         let (h, w) = (ours.height, ours.width);
-        assert_eq!(arrays[0].shape(), &[h, w, 3], "{name}");
-        let psnr = psnr_inside(&ours, &arrays[0].to_f64(), 4);
         println!("{name}: {psnr:.2} dB against LibRaw's development");
         assert!(psnr >= least_db, "{name}: {psnr:.2} dB against LibRaw");
         // The default framing is the file's DefaultCrop.
@@ -348,6 +333,37 @@ proptest! {
         prop_assert_eq!(ours.image.pattern, PATTERNS[pattern]);
         prop_assert_eq!((ours.image.black_level, ours.image.white_level), ([black; 4], white));
     }
+}
+
+/// camsim's development of the DNG at `path` as LibRaw develops it (LibRaw's framing, no
+/// BaselineExposure, bilinear, no noise reduction, the as-shot white balance and the file's
+/// matrices) and its PSNR against rawpy's `postprocess` (same size asserted), four-pixel
+/// borders aside; `None` without the oracle.
+fn develop_like_libraw(path: &std::path::Path) -> Option<(raw_formats::Image, f64)> {
+    use camsim::develop::{develop, RawInput, RunOptions};
+    use camsim::isp_options::{CropChoice, IspOptions};
+    let input = RawInput::read(path).unwrap();
+    let options = IspOptions {
+        crop: Some(CropChoice::Active),
+        baseline_exposure: Some(false),
+        demosaic: Some(isp_core::demosaic::Method::Bilinear),
+        denoise: Some(0.0),
+        ..IspOptions::default()
+    };
+    let (_, ours) = develop(&input, &options, None, RunOptions::default()).unwrap();
+    let arrays = oracle_arrays(
+        "rawpy_develop",
+        serde_json::json!({"path": path.to_str().unwrap()}),
+        &[],
+    )?;
+    assert_eq!(
+        arrays[0].shape(),
+        &[ours.height, ours.width, 3],
+        "{}",
+        path.display()
+    );
+    let psnr = psnr_inside(&ours, &arrays[0].to_f64(), 4);
+    Some((ours, psnr))
 }
 
 /// PSNR (8-bit) of `ours` against `theirs` (same size, RGB), leaving out a `border`-pixel frame
@@ -637,8 +653,6 @@ proptest! {
 /// samples clip the two treat highlights differently by design).
 #[test]
 fn lossy_dct_cinemadng_decodes_like_libraw() {
-    use camsim::develop::{develop, RawInput, RunOptions};
-    use camsim::isp_options::{CropChoice, IspOptions};
     let cases = [
         // (width, height, tile width, tile height, quality, pattern, a clipped stripe)
         (256, 128, 128, 64, 95, 0, true),
@@ -730,23 +744,9 @@ fn lossy_dct_cinemadng_decodes_like_libraw() {
             continue;
         }
         // Developed like LibRaw (bilinear, as-shot white balance, the file's matrix).
-        let input = RawInput::read(&path).unwrap();
-        let options = IspOptions {
-            crop: Some(CropChoice::Active),
-            baseline_exposure: Some(false),
-            demosaic: Some(isp_core::demosaic::Method::Bilinear),
-            denoise: Some(0.0),
-            ..IspOptions::default()
-        };
-        let (_, ours) = develop(&input, &options, None, RunOptions::default()).unwrap();
-        let developed = oracle_arrays(
-            "rawpy_develop",
-            serde_json::json!({"path": path.to_str().unwrap()}),
-            &[],
-        );
+        let developed = develop_like_libraw(&path);
         std::fs::remove_file(&path).ok();
-        let Some(developed) = developed else { return };
-        let psnr = psnr_inside(&ours, &developed[0].to_f64(), 4);
+        let Some((_, psnr)) = developed else { return };
         println!("case {i}: developed {psnr:.2} dB against LibRaw's development");
         assert!(
             psnr >= 35.0,
