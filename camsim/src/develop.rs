@@ -730,23 +730,14 @@ pub fn stage_times(
     threads: usize,
     repeats: u32,
 ) -> Result<Vec<(&'static str, f64)>, IspError> {
-    let (w, h) = (raw.width(), raw.height());
     let linear = matches!(raw, Input::Linear(_));
     let mut times = Vec::new();
     let mut previous = 0.0;
-    let (mut out8, mut out16) = (Vec::new(), Vec::new());
     for Step {
         name, config: c, ..
     } in &cumulative_steps(config, linear)
     {
-        let mut runner = Runner::new(raw, c, fixed, out_bits, threads)?;
-        let ms = if out_bits == 8 {
-            out8.resize(w * h * 3, 0u8);
-            runner.best_ms(&mut out8, repeats)?
-        } else {
-            out16.resize(w * h * 3, 0u16);
-            runner.best_ms(&mut out16, repeats)?
-        };
+        let ms = Runner::new(raw, c, fixed, out_bits, threads)?.time_ms(repeats)?;
         times.push((*name, (ms - previous).max(0.0)));
         previous = ms;
     }
@@ -845,6 +836,8 @@ pub struct Runner<'a> {
     path: PipelinePath<'a>,
     /// Output rows of each band, in order.
     bands: Vec<std::ops::Range<usize>>,
+    /// Bits of each output sample (8 or 16).
+    out_bits: u8,
 }
 
 // One value per run: the variants' sizes do not matter.
@@ -888,7 +881,19 @@ impl<'a> Runner<'a> {
             input: *input,
             path,
             bands,
+            out_bits,
         })
+    }
+
+    /// [`Runner::best_ms`] into an output of the runner's depth that is then dropped: for
+    /// timing alone.
+    pub fn time_ms(&mut self, repeats: u32) -> Result<f64, IspError> {
+        let samples = 3 * self.input.width() * self.input.height();
+        if self.out_bits == 8 {
+            self.best_ms(&mut vec![0u8; samples], repeats)
+        } else {
+            self.best_ms(&mut vec![0u16; samples], repeats)
+        }
     }
 
     /// Threads (bands) each run uses.

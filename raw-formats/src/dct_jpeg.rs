@@ -31,7 +31,9 @@
 //! ```
 
 use crate::error::{FormatError, Result};
-use crate::lossless_jpeg::{segment, BitReader, Huffman, Segment};
+use crate::lossless_jpeg::{
+    is_frame_header, segment, BitReader, Huffman, Segment, DHT, DRI, SOI, SOS,
+};
 
 /// A DCT JPEG frame's shape (its SOF0 or SOF1 header).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -60,13 +62,9 @@ fn error(offset: usize, problem: &'static str) -> FormatError {
     FormatError::DctJpeg { offset, problem }
 }
 
-const SOI: u8 = 0xd8;
 const SOF0: u8 = 0xc0;
 const SOF1: u8 = 0xc1;
-const DHT: u8 = 0xc4;
 const DQT: u8 = 0xdb;
-const SOS: u8 = 0xda;
-const DRI: u8 = 0xdd;
 
 /// The coefficient at each position of the zig-zag sequence (T.81 Figure A.6), as an index
 /// into the block row by row.
@@ -91,9 +89,7 @@ fn first_frame_marker(data: &[u8]) -> Option<u8> {
     loop {
         let s = segment(data, at).ok()?;
         match s.marker {
-            0xc0..=0xcf if s.marker != DHT && s.marker != 0xc8 && s.marker != 0xcc => {
-                return Some(s.marker)
-            }
+            m if is_frame_header(m) => return Some(s.marker),
             SOS => return None,
             _ => at = s.next,
         }
@@ -152,7 +148,7 @@ fn parse(data: &[u8], out: Option<&mut [u16]>) -> Result<Frame> {
                 }
                 h.frame = Some(f);
             }
-            0xc0..=0xcf if marker != DHT && marker != 0xc8 && marker != 0xcc => {
+            _ if is_frame_header(marker) => {
                 return Err(error(
                     at,
                     "not a sequential Huffman DCT JPEG (SOF0 or SOF1)",

@@ -49,13 +49,19 @@ fn error(offset: usize, problem: &'static str) -> FormatError {
     FormatError::LosslessJpeg { offset, problem }
 }
 
-const SOI: u8 = 0xd8;
+// T.81 Table B.1's markers, shared with the DCT decoder.
+pub(crate) const SOI: u8 = 0xd8;
 const EOI: u8 = 0xd9;
 const SOF3: u8 = 0xc3;
-const DHT: u8 = 0xc4;
-const SOS: u8 = 0xda;
-const DRI: u8 = 0xdd;
+pub(crate) const DHT: u8 = 0xc4;
+pub(crate) const SOS: u8 = 0xda;
+pub(crate) const DRI: u8 = 0xdd;
 const RST0: u8 = 0xd0;
+
+/// Whether `marker` starts a frame header (SOF0..SOF15; C4, C8 and CC are DHT, JPG and DAC).
+pub(crate) fn is_frame_header(marker: u8) -> bool {
+    matches!(marker, 0xc0..=0xcf) && !matches!(marker, DHT | 0xc8 | 0xcc)
+}
 
 /// Bits the decoding table resolves in one look-up; longer codes take the slow path.
 const LOOKUP_BITS: u32 = 10;
@@ -471,7 +477,7 @@ fn parse(data: &[u8], out: Option<&mut [u16]>) -> Result<(Frame, usize)> {
                 }
                 frame = Some((f, ids, [0; 4]));
             }
-            0xc0..=0xcf if marker != DHT && marker != 0xc8 && marker != 0xcc => {
+            _ if is_frame_header(marker) => {
                 return Err(error(at, "not a lossless Huffman JPEG (SOF3)"));
             }
             DHT => {

@@ -311,11 +311,7 @@ fn bench_isp(args: &BenchIspArgs) -> Result<String, Error> {
         let (w, h) = (p.input.width(), p.input.height());
         progress.step("camsim pipeline");
         let mut runner = Runner::new(&p.input, &p.config, p.fixed, p.out_bits, threads)?;
-        let ms = if p.out_bits == 8 {
-            runner.best_ms(&mut vec![0u8; w * h * 3], args.repeats)?
-        } else {
-            runner.best_ms(&mut vec![0u16; w * h * 3], args.repeats)?
-        };
+        let ms = runner.time_ms(args.repeats)?;
         progress.step("each stage, by ablation");
         let pixels = (w * h) as f64;
         let stage_ns_per_pixel = develop::stage_times(
