@@ -274,30 +274,7 @@ pub fn inverse_variance_row_f32(
     params: &FloatParams,
     out: &mut [f32],
 ) -> Result<(), IspError> {
-    let stride = check::<_, f32>(
-        &rows,
-        &[],
-        packed_width,
-        &[],
-        Some(0),
-        out.len(),
-        iv_row_len(packed_width),
-    )?;
-    let wide = packed_width + 2;
-    for (k, dst) in out.chunks_exact_mut(wide).enumerate() {
-        box_sums(
-            &rows,
-            k,
-            stride,
-            wide,
-            |v| v,
-            |c, sum| {
-                let var = params.scale[k] * (sum * (1.0 / 9.0)) + params.offset[k];
-                dst[c] = 1.0 / var.max(VAR_FLOOR as f32);
-            },
-        );
-    }
-    Ok(())
+    inverse_variance_row(rows, packed_width, params, out)
 }
 
 /// As [`inverse_variance_row_f32`] in integers: `2^56 / var_q16`, at most `u32::MAX`.
@@ -307,7 +284,17 @@ pub fn inverse_variance_row_u16(
     params: &FixedParams,
     out: &mut [u64],
 ) -> Result<(), IspError> {
-    let stride = check::<_, u64>(
+    inverse_variance_row(rows, packed_width, params, out)
+}
+
+/// The inverse variances of both paths (see [`inverse_variance_row_f32`]).
+fn inverse_variance_row<A: Arithmetic>(
+    rows: [&[A::S]; 3],
+    packed_width: usize,
+    params: &A,
+    out: &mut [A::W],
+) -> Result<(), IspError> {
+    let stride = check::<_, A::W>(
         &rows,
         &[],
         packed_width,
@@ -318,13 +305,121 @@ pub fn inverse_variance_row_u16(
     )?;
     let wide = packed_width + 2;
     for (k, dst) in out.chunks_exact_mut(wide).enumerate() {
-        box_sums(&rows, k, stride, wide, u64::from, |c, sum| {
-            // At least 2^24 with the floor, so the quotient is at most 2^32.
-            let var = (params.slope_q16[k] * sum + params.offset_q16[k]).max(FLOOR_Q16);
-            dst[c] = ((1u64 << 56) / var).min(u64::from(u32::MAX));
+        box_sums(&rows, k, stride, wide, A::widen, |c, sum| {
+            dst[c] = params.inverse_variance(k, sum);
         });
     }
     Ok(())
+}
+
+/// What the float and fixed filters do differently: the arithmetic of one distance term, the
+/// weight of a distance, a weighted sample and the output. [`filter_row`] is the one loop.
+trait Arithmetic {
+    /// Samples.
+    type S: Copy;
+    /// Distances, inverse variances, weights and sums.
+    type W: Copy + Default + core::ops::Add<Output = Self::W> + core::ops::AddAssign;
+    /// A sample in the work type.
+    fn widen(x: Self::S) -> Self::W;
+    /// The inverse variance of channel (CFA position) `k` at a 3x3 sum `sum9` of its samples.
+    fn inverse_variance(&self, k: usize, sum9: Self::W) -> Self::W;
+    /// One channel's squared difference of `a` and `b` over the variance (`i`, its inverse).
+    fn term(a: Self::S, b: Self::S, i: Self::W) -> Self::W;
+    /// The weight of a patch distance.
+    fn weight(&self, distance: Self::W) -> Self::W;
+    /// `w` times a sample.
+    fn weighted(w: Self::W, x: Self::S) -> Self::W;
+    /// The weighted mean `num / den` as a sample (`den` at least the centre's weight).
+    fn output(num: Self::W, den: Self::W) -> Self::S;
+}
+
+impl Arithmetic for FloatParams {
+    type S = f32;
+    type W = f32;
+
+    #[inline(always)]
+    fn widen(x: f32) -> f32 {
+        x
+    }
+
+    #[inline(always)]
+    fn inverse_variance(&self, k: usize, sum9: f32) -> f32 {
+        let var = self.scale[k] * (sum9 * (1.0 / 9.0)) + self.offset[k];
+        1.0 / var.max(VAR_FLOOR as f32)
+    }
+
+    #[inline(always)]
+    fn term(a: f32, b: f32, i: f32) -> f32 {
+        let d = b - a;
+        d * d * i
+    }
+
+    #[inline(always)]
+    fn weight(&self, distance: f32) -> f32 {
+        let excess = (distance - 2.0 * TERMS).max(0.0);
+        let u = (1.0 - excess * self.inv_span).max(0.0);
+        let u2 = u * u;
+        let u4 = u2 * u2;
+        u4 * u4
+    }
+
+    #[inline(always)]
+    fn weighted(w: f32, x: f32) -> f32 {
+        w * x
+    }
+
+    #[inline(always)]
+    fn output(num: f32, den: f32) -> f32 {
+        num / den
+    }
+}
+
+impl Arithmetic for FixedParams {
+    type S = u16;
+    type W = u64;
+
+    #[inline(always)]
+    fn widen(x: u16) -> u64 {
+        u64::from(x)
+    }
+
+    #[inline(always)]
+    fn inverse_variance(&self, k: usize, sum9: u64) -> u64 {
+        // At least 2^24 with the floor, so the quotient is at most 2^32.
+        let var = (self.slope_q16[k] * sum9 + self.offset_q16[k]).max(FLOOR_Q16);
+        ((1u64 << 56) / var).min(u64::from(u32::MAX))
+    }
+
+    #[inline(always)]
+    fn term(a: u16, b: u16, i: u64) -> u64 {
+        // d^2 < 2^32 and i < 2^32 (so `as u32` keeps it): one 32 x 32 -> 64 bit product,
+        // which vectorises (`pmuludq`), where a 64-bit product of `u64` operands did not.
+        let d = u32::from(a.abs_diff(b));
+        (u64::from(d * d) * u64::from(i as u32)) >> (40 - DISTANCE_BITS)
+    }
+
+    #[inline(always)]
+    fn weight(&self, distance: u64) -> u64 {
+        let floor = (2 * 36) << DISTANCE_BITS;
+        let one = 1u64 << WEIGHT_BITS;
+        let square = |a: u64| (a * a + (1 << (WEIGHT_BITS - 1))) >> WEIGHT_BITS;
+        // Beyond 65536 units every allowed strength has weight 0.
+        let excess = distance.saturating_sub(floor).min(1 << 32);
+        let drop = (excess.saturating_mul(self.inv_span_q24) >> 24).min(one);
+        square(square(square(one - drop)))
+    }
+
+    #[inline(always)]
+    fn weighted(w: u64, x: u16) -> u64 {
+        w * u64::from(x)
+    }
+
+    #[inline(always)]
+    fn output(num: u64, den: u64) -> u16 {
+        // The centre's weight is 2^24, so the divisor is never 0.
+        let d = den.max(1);
+        ((num + d / 2) / d).min(65535) as u16
+    }
 }
 
 /// Filters packed row `j` from `rows`, packed rows `j - 3 ..= j + 3` (reflected by the
@@ -340,63 +435,7 @@ pub fn filter_row_f32(
     work: &mut [f32],
     out: &mut [f32],
 ) -> Result<(), IspError> {
-    let stride = check(
-        &rows,
-        &iv,
-        packed_width,
-        work,
-        sums_len(packed_width),
-        out.len(),
-        packed_width.checked_mul(4),
-    )?;
-    let wide = packed_width + 2;
-    let (vsum, rest) = work.split_at_mut(wide);
-    let (num, rest) = rest.split_at_mut(4 * packed_width);
-    let den = &mut rest[..packed_width];
-    num.fill(0.0);
-    den.fill(0.0);
-    for dy in -(SEARCH_RADIUS as isize)..=SEARCH_RADIUS as isize {
-        for dx in -(SEARCH_RADIUS as isize)..=SEARCH_RADIUS as isize {
-            // Column sums over the patch rows of the normalised squared differences.
-            vsum.fill(0.0);
-            for (t, iv_row) in iv.iter().enumerate() {
-                let (r, n) = (t + 2, (t as isize + 2 + dy) as usize);
-                for k in 0..4 {
-                    let here = &plane(rows[r], k, stride)[PAD - 1..PAD + 1 + packed_width];
-                    let s = (PAD as isize - 1 + dx) as usize;
-                    let there = &plane(rows[n], k, stride)[s..s + wide];
-                    let inv = plane(iv_row, k, wide);
-                    for (((v, a), b), i) in vsum.iter_mut().zip(here).zip(there).zip(inv) {
-                        let d = b - a;
-                        *v += d * d * i;
-                    }
-                }
-            }
-            let centre = (PAD as isize + dy) as usize;
-            let s = (PAD as isize + dx) as usize;
-            for (i, dn) in den.iter_mut().enumerate() {
-                let distance = vsum[i] + vsum[i + 1] + vsum[i + 2];
-                let excess = (distance - 2.0 * TERMS).max(0.0);
-                let u = (1.0 - excess * params.inv_span).max(0.0);
-                let u2 = u * u;
-                let u4 = u2 * u2;
-                let w = u4 * u4;
-                *dn += w;
-                for k in 0..4 {
-                    num[k * packed_width + i] += w * plane(rows[centre], k, stride)[s + i];
-                }
-            }
-        }
-    }
-    for k in 0..4 {
-        for (i, o) in out[k * packed_width..(k + 1) * packed_width]
-            .iter_mut()
-            .enumerate()
-        {
-            *o = num[k * packed_width + i] / den[i];
-        }
-    }
-    Ok(())
+    filter_row(rows, iv, packed_width, params, work, out)
 }
 
 /// As [`filter_row_f32`] in integers: samples `u16` (65535 = 1.0), inverse variances from
@@ -408,6 +447,20 @@ pub fn filter_row_u16(
     params: &FixedParams,
     work: &mut [u64],
     out: &mut [u16],
+) -> Result<(), IspError> {
+    filter_row(rows, iv, packed_width, params, work, out)
+}
+
+/// The filter of both paths (see [`filter_row_f32`]), in `A`'s arithmetic; the float sums are
+/// formed in the order the module docs give.
+#[inline(always)]
+fn filter_row<A: Arithmetic>(
+    rows: [&[A::S]; PACKED_ROWS],
+    iv: [&[A::W]; 3],
+    packed_width: usize,
+    params: &A,
+    work: &mut [A::W],
+    out: &mut [A::S],
 ) -> Result<(), IspError> {
     let stride = check(
         &rows,
@@ -422,14 +475,12 @@ pub fn filter_row_u16(
     let (vsum, rest) = work.split_at_mut(wide);
     let (num, rest) = rest.split_at_mut(4 * packed_width);
     let den = &mut rest[..packed_width];
-    num.fill(0);
-    den.fill(0);
-    let floor = (2 * 36) << DISTANCE_BITS;
-    let one = 1u64 << WEIGHT_BITS;
-    let square = |a: u64| (a * a + (1 << (WEIGHT_BITS - 1))) >> WEIGHT_BITS;
+    num.fill(A::W::default());
+    den.fill(A::W::default());
     for dy in -(SEARCH_RADIUS as isize)..=SEARCH_RADIUS as isize {
         for dx in -(SEARCH_RADIUS as isize)..=SEARCH_RADIUS as isize {
-            vsum.fill(0);
+            // Column sums over the patch rows of the normalised squared differences.
+            vsum.fill(A::W::default());
             for (t, iv_row) in iv.iter().enumerate() {
                 let (r, n) = (t + 2, (t as isize + 2 + dy) as usize);
                 for k in 0..4 {
@@ -438,38 +489,27 @@ pub fn filter_row_u16(
                     let there = &plane(rows[n], k, stride)[s..s + wide];
                     let inv = plane(iv_row, k, wide);
                     for (((v, &a), &b), &i) in vsum.iter_mut().zip(here).zip(there).zip(inv) {
-                        // d^2 < 2^32 and i < 2^32 (so `as u32` keeps it): one 32 x 32 -> 64
-                        // bit product, which vectorises (`pmuludq`), where a 64-bit product
-                        // of `u64` operands did not.
-                        let d = u32::from(a.abs_diff(b));
-                        *v += (u64::from(d * d) * u64::from(i as u32)) >> (40 - DISTANCE_BITS);
+                        *v += A::term(a, b, i);
                     }
                 }
             }
             let centre = (PAD as isize + dy) as usize;
             let s = (PAD as isize + dx) as usize;
             for (i, dn) in den.iter_mut().enumerate() {
-                let distance = vsum[i] + vsum[i + 1] + vsum[i + 2];
-                // Beyond 65536 units every allowed strength has weight 0.
-                let excess = distance.saturating_sub(floor).min(1 << 32);
-                let drop = (excess.saturating_mul(params.inv_span_q24) >> 24).min(one);
-                let w = square(square(square(one - drop)));
+                let w = params.weight(vsum[i] + vsum[i + 1] + vsum[i + 2]);
                 *dn += w;
                 for k in 0..4 {
                     num[k * packed_width + i] +=
-                        w * u64::from(plane(rows[centre], k, stride)[s + i]);
+                        A::weighted(w, plane(rows[centre], k, stride)[s + i]);
                 }
             }
         }
     }
+    // (Indexed per plane, not `chunks_exact_mut`, which panics on a width of 0.)
     for k in 0..4 {
-        for (i, o) in out[k * packed_width..(k + 1) * packed_width]
-            .iter_mut()
-            .enumerate()
-        {
-            // The centre's weight is 2^24, so the divisor is never 0.
-            let d = den[i].max(1);
-            *o = ((num[k * packed_width + i] + d / 2) / d).min(65535) as u16;
+        let plane_out = &mut out[k * packed_width..(k + 1) * packed_width];
+        for (i, o) in plane_out.iter_mut().enumerate() {
+            *o = A::output(num[k * packed_width + i], den[i]);
         }
     }
     Ok(())
