@@ -105,6 +105,11 @@ pub struct DemoSettings {
     pub awb: AwbMethod,
     /// Demosaicing method (one the pipeline runs).
     pub demosaic: Method,
+    /// Noise reduction's strength (a multiplier on the profile's default); `None`: 1 where the
+    /// sensor is noisy, else 0.
+    pub denoise: Option<f32>,
+    /// Chroma noise reduction's strength; `None`: 1 where noise reduction is on, else 0.
+    pub chroma_denoise: Option<f32>,
 }
 
 impl Default for DemoSettings {
@@ -127,6 +132,8 @@ impl Default for DemoSettings {
             pattern: isp_core::CfaPattern::Rggb,
             awb: AwbMethod::WhitePatch { percentile: 99.0 },
             demosaic: develop::DEFAULT_METHOD,
+            denoise: None,
+            chroma_denoise: None,
         }
     }
 }
@@ -411,8 +418,14 @@ impl Captured {
         }
     }
 
-    /// The ISP configuration `camsim demo` runs on this frame, with `demosaic` and `denoise`.
-    pub fn isp_config(&self, demosaic: Method, denoise: f32) -> Result<IspConfig<'_>, Error> {
+    /// The ISP configuration `camsim demo` runs on this frame, with `demosaic`, `denoise` and
+    /// `chroma_denoise`.
+    pub fn isp_config(
+        &self,
+        demosaic: Method,
+        denoise: f32,
+        chroma_denoise: f32,
+    ) -> Result<IspConfig<'_>, Error> {
         Ok(IspConfig {
             dpc: DpcConfig {
                 static_defects: &self.defects,
@@ -429,6 +442,7 @@ impl Captured {
             noise: Some(self.capture.noise_profile),
             highlight_knee: develop::DEFAULT_HIGHLIGHT_KNEE,
             ccm: self.ccm,
+            chroma_denoise,
             ..IspConfig::default()
         })
     }
@@ -695,7 +709,11 @@ pub fn run(
     }
     let noise = develop::Noise::File(capture.noise_profile);
     let raw_back = back.image.frame()?;
-    let isp_config = captured.isp_config(args.demosaic, captured.default_denoise())?;
+    let denoise = args.denoise.unwrap_or(captured.default_denoise());
+    let chroma_denoise = args
+        .chroma_denoise
+        .unwrap_or(develop::default_chroma_denoise(denoise));
+    let isp_config = captured.isp_config(args.demosaic, denoise, chroma_denoise)?;
     // The demo's report lists each stage's time: ablation on the demo's small frame.
     let run = develop::RunOptions {
         stage_times: true,

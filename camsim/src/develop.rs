@@ -593,6 +593,9 @@ pub fn with_prepared<R>(
         ccm,
         tone: options.look.unwrap_or(Look::Neutral).tone(),
         sharpen: options.sharpen.unwrap_or(0.0),
+        chroma_denoise: options
+            .chroma_denoise
+            .unwrap_or(default_chroma_denoise(denoise)),
     };
     config.validate()?;
     let fixed = options.fixed.unwrap_or(false);
@@ -607,6 +610,16 @@ pub fn with_prepared<R>(
         crop: options.crop.unwrap_or_default(),
         noise,
     })
+}
+
+/// Chroma noise reduction's default strength: on (1) where raw noise reduction is on, since
+/// what that leaves is what it takes out; off otherwise.
+pub fn default_chroma_denoise(denoise: f32) -> f32 {
+    if denoise > 0.0 {
+        1.0
+    } else {
+        0.0
+    }
 }
 
 /// Crops the developed image as `choice` and the file say, then turns it upright; with what
@@ -791,6 +804,8 @@ fn cumulative_steps<'a>(config: &IspConfig<'a>, linear: bool) -> Vec<Step<'a>> {
     ));
     c.tone = config.tone;
     steps.push(("tone", config.tone != Look::Neutral.tone(), true, c));
+    c.chroma_denoise = config.chroma_denoise;
+    steps.push(("chroma denoise", config.chroma_denoise > 0.0, true, c));
     c.sharpen = config.sharpen;
     steps.push(("sharpening", config.sharpen > 0.0, true, c));
     steps
@@ -820,12 +835,16 @@ pub fn stage_names(config: &IspConfig<'_>, linear: bool) -> Vec<&'static str> {
     } else {
         config.demosaic.name()
     });
-    let before_encoding = |s: &&Step| s.after_demosaic && s.name != "sharpening";
+    let after_encoding = ["chroma denoise", "sharpening"];
+    let before_encoding = |s: &&Step| s.after_demosaic && !after_encoding.contains(&s.name);
     stages.extend(steps[1..].iter().filter(before_encoding).map(|s| s.name));
     stages.push("sRGB encode");
-    if config.sharpen > 0.0 {
-        stages.push("sharpening");
-    }
+    stages.extend(
+        steps[1..]
+            .iter()
+            .filter(|s| after_encoding.contains(&s.name))
+            .map(|s| s.name),
+    );
     stages
 }
 

@@ -13,6 +13,7 @@
 //! ccm = [[1.6, -0.4, -0.2], [-0.3, 1.5, -0.2], [0.0, -0.5, 1.5]]
 //! demosaic = "mhc"
 //! denoise = 1.5                    # noise reduction, a multiplier on the profile's default (1); 0 is off
+//! chroma-denoise = 1               # chroma noise reduction after encoding, [0, 4]; 0 is off
 //! noise-profile = [0.0032, 1.2e-5]  # var = S x + O (x: fraction of white above black); or six, S, O per R G B
 //! highlight-knee = 0.9             # clipped colour fades to neutral above it; 1 is off
 //! sharpen = 0.5                    # unsharp mask on luma, [0, 4]; 0 is off
@@ -201,6 +202,8 @@ pub struct IspOptions {
     pub highlight_knee: Option<f32>,
     /// Sharpening amount in `[0, 4]` (0 is off): an unsharp mask on luma after encoding.
     pub sharpen: Option<f32>,
+    /// Chroma noise reduction's strength in `[0, 4]` (0 is off).
+    pub chroma_denoise: Option<f32>,
 }
 
 /// Which part of the raw's active area the developed image shows.
@@ -250,6 +253,7 @@ impl IspOptions {
             baseline_exposure: self.baseline_exposure.or(fallback.baseline_exposure),
             highlight_knee: self.highlight_knee.or(fallback.highlight_knee),
             sharpen: self.sharpen.or(fallback.sharpen),
+            chroma_denoise: self.chroma_denoise.or(fallback.chroma_denoise),
         }
     }
 }
@@ -382,7 +386,7 @@ pub fn camera_matrix(values: Vec<f64>, what: &str) -> Result<[f64; 4]> {
 }
 
 /// The file's keys, each the name of a flag (or a table the command line has no flag for).
-const KEYS: [&str; 23] = [
+const KEYS: [&str; 24] = [
     "pattern",
     "bits",
     "black-level",
@@ -406,6 +410,7 @@ const KEYS: [&str; 23] = [
     "baseline-exposure",
     "highlight-knee",
     "sharpen",
+    "chroma-denoise",
 ];
 
 /// One value of the file, with where it is for error messages.
@@ -572,6 +577,7 @@ pub fn from_toml(text: &str, file: &Path) -> Result<IspOptions> {
             "baseline-exposure" => options.baseline_exposure = Some(f.boolean()?),
             "highlight-knee" => options.highlight_knee = Some(f.scalar()? as f32),
             "sharpen" => options.sharpen = Some(f.scalar()? as f32),
+            "chroma-denoise" => options.chroma_denoise = Some(f.scalar()? as f32),
             other => {
                 return Err(f.error(format!(
                     "unknown key {other:?}; known keys: {}",

@@ -1,6 +1,7 @@
 //! Runs the pipeline on a synthetic 2592x1968 10-bit RGGB frame in a loop, for `perf record`:
 //! `cargo run --release -p isp-core --example profile_pipeline -- fixed mhc 20`.
-//! Arguments: path (float or fixed), demosaic method, frames, highlight knee. Prints ms per
+//! Arguments: path (float or fixed), demosaic method, frames, highlight knee, chroma noise
+//! reduction's strength. Prints ms per
 //! frame. Runs the AVX2 entry where the CPU has AVX2, unless `CAMSIM_BASELINE` is set.
 
 use isp_core::dpc::DpcConfig;
@@ -14,6 +15,7 @@ fn main() {
     let method = args.get(2).map_or("mhc", String::as_str).parse().unwrap();
     let frames: usize = args.get(3).map_or(10, |s| s.parse().unwrap());
     let knee: f32 = args.get(4).map_or(1.0, |s| s.parse().unwrap());
+    let chroma: f32 = args.get(5).map_or(0.0, |s| s.parse().unwrap());
     // CAMSIM_BASELINE=1 runs the baseline build even where AVX2 is there.
     let avx2 = std::env::var_os("CAMSIM_BASELINE").is_none() && avx2_detected();
     let (w, h) = (2592usize, 1968usize);
@@ -37,6 +39,7 @@ fn main() {
         demosaic: method,
         highlight_knee: knee,
         ccm: [[1.6, -0.4, -0.2], [-0.3, 1.5, -0.2], [0.0, -0.5, 1.5]],
+        chroma_denoise: chroma,
         ..IspConfig::default()
     };
     let mut out = vec![0u8; w * h * 3];

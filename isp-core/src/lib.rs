@@ -9,7 +9,8 @@
 //! correction ([`distortion`], OpenCV's `cv2.undistort` through optics-core's Brown-Conrady
 //! model), denoise ([`denoise`], with the sensor's noise model in [`noise`]), colour
 //! correction ([`ccm`], interpolated by colour temperature from a calibration), tone
-//! ([`tone`]: saturation, contrast, curve, looks) and sRGB encoding ([`srgb`]). A float reference path and a fixed-point firmware path produce the same
+//! ([`tone`]: saturation, contrast, curve, looks), sRGB encoding ([`srgb`]) and chroma noise
+//! reduction ([`chroma`]). A float reference path and a fixed-point firmware path produce the same
 //! output to 1 LSB, streaming a band of rows at a time through line buffers in caller memory.
 //! [`colour`] holds the colorimetry the control code needs, [`frame`] the checked views over
 //! caller memory.
@@ -26,6 +27,7 @@
 
 pub mod ccm;
 mod cfa;
+pub mod chroma;
 pub mod colour;
 pub mod demosaic;
 pub mod denoise;

@@ -19,6 +19,7 @@
 //! lin  = clamp(CCM * rgb, 0, 1)
 //! lin  = tone(lin)                                  saturation, contrast, curve (tone module)
 //! e    = srgb_oetf(lin)
+//! e    = Y + chroma(e - Y)                          chroma noise reduction, off by default
 //! e_c  = clamp(e_c + s * (Y - blur(Y)), 0, 1)      sharpening, off (s = 0) by default
 //! out  = round(255 * e)                             or 65535 for 16-bit; f32 output unrounded
 //! ```
@@ -31,7 +32,9 @@
 //! domain (where ISPs sharpen, so the overshoot is even to the eye): `Y = 0.2126 e_r + 0.7152
 //! e_g + 0.0722 e_b` (Rec. 709 luma), `blur` the 3x3 binomial kernel `[1 2 1]^T [1 2 1] / 16`
 //! over it with reflect-101 borders, and the same luma detail added to each channel, so hue
-//! is kept. Each stage that is off (no defects, no grid, gain 1, gains
+//! is kept. `chroma` is the edge-aware mean of each pixel's chroma `e - Y` over its
+//! neighbours, horizontal then vertical ([`crate::chroma`]), which keeps `Y`; with it on, the
+//! value sharpened and clamped is `Y + chroma(e - Y)` unclamped. Each stage that is off (no defects, no grid, gain 1, gains
 //! 1, no distortion, strength 0, identity matrix, neutral tone) is skipped, and skipping it
 //! changes nothing. Noise reduction filters whole 2x2 blocks, so it needs a mosaic of even
 //! width and height (and refuses a linear frame).
@@ -53,8 +56,8 @@
 //! noise reduction with Q16 distances and Q24 weights ([`crate::denoise`]); distortion
 //! correction with the same source positions and integer weights over 1024; the CCM in signed Q4.16; saturation as a Q16 matrix; contrast and
 //! curve through [`ToneLut`]; encoding through [`EncodeLut`] (at 16 bits first when
-//! sharpening, which then runs on 16-bit codes with Q16 luma weights and a Q12 amount, and
-//! reduces to the output depth last). Every step rounds to nearest and
+//! sharpening or chroma noise reduction, which then run on 16-bit codes with Q16 luma weights,
+//! a Q12 amount and Q12 chroma weights, and reduce to the output depth last). Every step rounds to nearest and
 //! saturates. Its 8-bit output is within 1 LSB of the float path on at least 99.9% of pixels
 //! and 2 LSB everywhere (tested over Kodak and McMaster as 12-bit raw and over random frames).
 //!
@@ -81,7 +84,7 @@
 //! The common camera pipeline (a raw frame at least 8 pixels wide and 3 high; defect
 //! correction, black level, gain, white balance, bilinear, MHC or directional, highlights,
 //! colour matrix, sharpening;
-//! 8-bit output; no shading grid, distortion correction, noise reduction or tone) runs on
+//! 8-bit output; no shading grid, distortion correction, noise reduction (raw or chroma) or tone) runs on
 //! a second schedule of the same stages: rows split into even and odd columns with reflected
 //! padding, so each stage is a loop over contiguous slices with constants fixed per loop, which
 //! the compiler vectorises. It gives the engine's output bit for bit (the fixed path keeps the
@@ -131,6 +134,7 @@
 
 use core::ops::Range;
 
+use crate::chroma;
 use crate::demosaic::directional::{
     self, Arithmetic, Fixed, Float, OutputRow, SourceRow, Stream, LANES,
 };
@@ -168,6 +172,9 @@ const SHARPEN_ROWS: usize = 3;
 const FIXED_WORK_RATIO: usize = 4;
 /// Largest sharpening amount.
 pub const MAX_SHARPEN: f32 = 4.0;
+/// Split rows the chroma stage keeps: its vertical window, the row being split and the
+/// vertical pass's output.
+const CHROMA_ROWS: usize = chroma::TAPS + 2;
 /// Rec. 709 luma weights of the sharpening stage.
 const LUMA: [f32; 3] = [0.2126, 0.7152, 0.0722];
 /// [`LUMA`] in Q16, summing to 65536.
@@ -212,6 +219,9 @@ pub struct IspConfig<'a> {
     /// Sharpening: the amount of an unsharp mask on luma after encoding, `[0, 4]` (0 is off;
     /// 1 adds the luma's full difference from its 3x3 blur).
     pub sharpen: f32,
+    /// Chroma noise reduction's strength, `[0, 4]` (0 is off, 1 the default ranges of
+    /// [`crate::chroma`]).
+    pub chroma_denoise: f32,
 }
 
 /// The identity matrix.
@@ -232,6 +242,7 @@ impl Default for IspConfig<'_> {
             ccm: IDENTITY,
             tone: Tone::default(),
             sharpen: 0.0,
+            chroma_denoise: 0.0,
         }
     }
 }
@@ -271,6 +282,7 @@ impl IspConfig<'_> {
                 allowed: "[0, 4] (0 is off)",
             });
         }
+        chroma::FloatParams::new(self.chroma_denoise)?;
         ccm::validate(&self.ccm)?;
         self.tone.validate()
     }
@@ -284,32 +296,67 @@ impl IspConfig<'_> {
     /// configuration (the larger of [`FloatPipeline::scratch_len`] and
     /// [`FixedPipeline::scratch_len`]): [`scratch_len`] for the streaming methods without
     /// distortion correction, plus the directional method's ring buffers with it, plus `9 *
-    /// width` with sharpening, plus `3 * window * width` with distortion correction (see the
+    /// width` with sharpening (or `75 * width + 1` with chroma noise reduction), plus `3 *
+    /// window * width` with distortion correction (see the
     /// module docs). With distortion on,
     /// this evaluates the lens model at every pixel once.
     pub fn scratch_len(&self, width: usize, height: usize) -> Option<usize> {
         let denoise = (self.denoise > 0.0).then_some(FIXED_WORK_RATIO);
-        let extra = extra_len::<Fixed<u16>>(self.demosaic, self.sharpen > 0.0, denoise, width)?;
+        let detail = Detail::of(self.sharpen > 0.0, self.chroma_denoise > 0.0);
+        let extra = extra_len::<Fixed<u16>, i32>(self.demosaic, detail, denoise, width)?;
         engine_scratch_len(self.active_distortion(), extra, width, height)
     }
 }
 
+/// The stages after encoding that read neighbouring rows, and so keep a ring of encoded rows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Detail {
+    /// Neither: each row is finished as it is demosaiced.
+    Off,
+    /// Sharpening alone: a ring of three encoded rows.
+    Sharpen,
+    /// Chroma noise reduction (and sharpening, if on): a ring of split rows.
+    Chroma,
+}
+
+impl Detail {
+    fn of(sharpen: bool, chroma: bool) -> Self {
+        match (sharpen, chroma) {
+            (_, true) => Self::Chroma,
+            (true, false) => Self::Sharpen,
+            (false, false) => Self::Off,
+        }
+    }
+
+    /// Elements of a path's scratch (of type `T`, the chroma stage's split rows of type `D`)
+    /// for the ring.
+    fn len<T, D>(self, width: usize) -> Option<usize> {
+        match self {
+            Self::Off => Some(0),
+            Self::Sharpen => width.checked_mul(3 * SHARPEN_ROWS),
+            Self::Chroma => {
+                let ratio = core::mem::size_of::<D>().div_ceil(core::mem::size_of::<T>());
+                // The encoded row, and the split rows (plus alignment).
+                width
+                    .checked_mul(chroma::SPLIT * CHROMA_ROWS * ratio)?
+                    .checked_add(ratio - 1)?
+                    .checked_add(width.checked_mul(3)?)
+            }
+        }
+    }
+}
+
 /// Elements of a path's scratch beyond [`scratch_len`] for the directional method's rings,
-/// the sharpening rows and noise reduction (`denoise`: the path's scratch elements per work
-/// element, when it is on).
-fn extra_len<A: Arithmetic>(
+/// the rows of the stages after encoding and noise reduction (`denoise`: the path's scratch
+/// elements per work element, when it is on).
+fn extra_len<A: Arithmetic, C>(
     method: Method,
-    sharpen: bool,
+    detail: Detail,
     denoise: Option<usize>,
     width: usize,
 ) -> Option<usize> {
-    let sharpen_rows = if sharpen {
-        width.checked_mul(3 * SHARPEN_ROWS)?
-    } else {
-        0
-    };
     directional_len::<A>(method, width)?
-        .checked_add(sharpen_rows)?
+        .checked_add(detail.len::<A::T, C>(width)?)?
         .checked_add(denoise_len(denoise, width)?)
 }
 
@@ -554,23 +601,47 @@ trait Path {
     fn encoded_row(&self, row: &[Self::P], out: &mut [Self::P]);
     /// Sharpens the middle row of `rows` (encoded, [`Path::encoded_row`]) into `out`.
     fn sharpen_row<O: OutputSample>(&self, rows: [&[Self::P]; 3], out: &mut [O]);
+    /// The stages after encoding that read neighbouring rows.
+    fn detail_stages(&self) -> Detail;
+    /// The chroma stage's split elements (`f32`, `i32`).
+    type Chroma: Copy + 'static;
+    /// The chroma stage's rows in a part of this path's scratch.
+    fn chroma_rows(part: &mut [Self::P]) -> &mut [Self::Chroma];
+    /// Encodes a row of linear RGB as [`Path::encoded_row`] (into `encoded`), splits it into
+    /// luma and chroma (into `split`) and runs the chroma stage's horizontal pass into `out`.
+    fn chroma_split_row(
+        &self,
+        row: &[Self::P],
+        encoded: &mut [Self::P],
+        split: &mut [Self::Chroma],
+        out: &mut [Self::Chroma],
+    ) -> Result<(), IspError>;
+    /// The chroma stage's vertical pass for the middle row of `rows` (from
+    /// [`Path::chroma_split_row`]) into `work`, then luma plus chroma, sharpened if that is
+    /// on, into `out`.
+    fn chroma_row<O: OutputSample>(
+        &self,
+        rows: [&[Self::Chroma]; chroma::TAPS],
+        work: &mut [Self::Chroma],
+        out: &mut [O],
+    ) -> Result<(), IspError>;
 }
 
-/// Walks the middle row of three encoded rows for the sharpening stage: `emit(x, pixel,
-/// luma, blurred)` with `blurred` the luma's 3x3 binomial sum around it (16 times the blur:
-/// weights 1 2 1 in each direction), reflect-101 at the frame's edges (the caller reflects
-/// the rows).
+/// Walks the middle row of three encoded rows (`N` elements a pixel: RGB, or the chroma
+/// stage's luma and chroma) for the sharpening stage: `emit(x, pixel, luma, blurred)` with
+/// `blurred` the luma's 3x3 binomial sum around it (16 times the blur: weights 1 2 1 in each
+/// direction), reflect-101 at the frame's edges (the caller reflects the rows).
 #[inline(always)]
-fn sharpen_pixels<V: Copy, L: Copy + core::ops::Add<Output = L>>(
+fn sharpen_pixels<const N: usize, V: Copy, L: Copy + core::ops::Add<Output = L>>(
     rows: [&[V]; 3],
-    luma: impl Fn([V; 3]) -> L,
-    mut emit: impl FnMut(usize, [V; 3], L, L),
+    luma: impl Fn([V; N]) -> L,
+    mut emit: impl FnMut(usize, [V; N], L, L),
 ) {
-    let w = rows[1].len() / 3;
+    let w = rows[1].len() / N;
     if w == 0 {
         return;
     }
-    let pixel = |row: &[V], x: usize| [row[3 * x], row[3 * x + 1], row[3 * x + 2]];
+    let pixel = |row: &[V], x: usize| -> [V; N] { core::array::from_fn(|i| row[N * x + i]) };
     // The luma of rows -1, 0, 1 at column x weighted 1 2 1, and the middle row's own.
     let column = |x: usize| {
         let mid = luma(pixel(rows[1], x));
@@ -613,7 +684,8 @@ impl<'a> FloatPipeline<'a> {
     pub fn scratch_len(&self, width: usize, height: usize) -> Option<usize> {
         let c = &self.config;
         let denoise = (c.denoise > 0.0).then_some(1);
-        let extra = extra_len::<Float<f32>>(c.demosaic, c.sharpen > 0.0, denoise, width)?;
+        let detail = Detail::of(c.sharpen > 0.0, c.chroma_denoise > 0.0);
+        let extra = extra_len::<Float<f32>, f32>(c.demosaic, detail, denoise, width)?;
         engine_scratch_len(c.active_distortion(), extra, width, height)
     }
 
@@ -974,6 +1046,63 @@ impl Path for FloatPipeline<'_> {
             }
         });
     }
+
+    fn detail_stages(&self) -> Detail {
+        Detail::of(self.config.sharpen > 0.0, self.config.chroma_denoise > 0.0)
+    }
+
+    type Chroma = f32;
+
+    fn chroma_rows(part: &mut [f32]) -> &mut [f32] {
+        part
+    }
+
+    fn chroma_split_row(
+        &self,
+        row: &[f32],
+        encoded: &mut [f32],
+        split: &mut [f32],
+        out: &mut [f32],
+    ) -> Result<(), IspError> {
+        let Some(params) = chroma::FloatParams::new(self.config.chroma_denoise)? else {
+            return Ok(());
+        };
+        self.encoded_row(row, encoded);
+        chroma::split_row_f32(encoded, split)?;
+        chroma::horizontal_f32(&params, split, out)
+    }
+
+    fn chroma_row<O: OutputSample>(
+        &self,
+        rows: [&[f32]; chroma::TAPS],
+        work: &mut [f32],
+        out: &mut [O],
+    ) -> Result<(), IspError> {
+        let Some(params) = chroma::FloatParams::new(self.config.chroma_denoise)? else {
+            return Ok(());
+        };
+        chroma::vertical_f32(&params, rows, work)?;
+        let work: &[f32] = work;
+        let mut emit = |x: usize, detail: f32| {
+            let p = &work[chroma::SPLIT * x..chroma::SPLIT * (x + 1)];
+            for (o, c) in out[3 * x..3 * x + 3].iter_mut().zip(&p[1..]) {
+                *o = O::from_encoded((p[0] + c + detail).clamp(0.0, 1.0));
+            }
+        };
+        let amount = self.config.sharpen;
+        if amount == 0.0 {
+            (0..work.len() / chroma::SPLIT).for_each(|x| emit(x, 0.0));
+        } else {
+            let r = chroma::RADIUS;
+            let rows = [rows[r - 1], rows[r], rows[r + 1]];
+            sharpen_pixels(
+                rows,
+                |p: [f32; 4]| p[0],
+                |x, _, y, blurred| emit(x, amount * (y - blurred * (1.0 / 16.0))),
+            );
+        }
+        Ok(())
+    }
 }
 
 impl FloatPipeline<'_> {
@@ -1010,8 +1139,12 @@ pub struct FixedPipeline<'a> {
     saturation_q: Option<[[i32; 3]; 3]>,
     tone_lut: Option<ToneLut>,
     encode: EncodeLut,
-    /// The sharpening amount in Q12 and the 16-bit encoding it runs on, when it is on.
-    sharpen_q12: Option<(i64, EncodeLut)>,
+    /// The sharpening amount in Q12, when it is on.
+    sharpen_q12: Option<i64>,
+    /// Chroma noise reduction's parameters, when it is on.
+    chroma: Option<chroma::FixedParams>,
+    /// The 16-bit encoding sharpening and chroma noise reduction run on, when either is on.
+    encode16: Option<EncodeLut>,
 }
 
 fn to_q16(v: f32) -> u64 {
@@ -1042,11 +1175,12 @@ impl<'a> FixedPipeline<'a> {
                 .then(|| ccm::quantise(&config.tone.saturation_matrix(), SATURATION_FRAC_BITS)),
             tone_lut: (!config.tone.curve_is_identity()).then(|| ToneLut::new(&config.tone)),
             encode: EncodeLut::new(out_bits)?,
-            sharpen_q12: match config.sharpen > 0.0 {
-                true => Some((
-                    (f64::from(config.sharpen) * f64::from(1u32 << SHARPEN_FRAC_BITS) + 0.5) as i64,
-                    EncodeLut::new(16)?,
-                )),
+            sharpen_q12: (config.sharpen > 0.0).then(|| {
+                (f64::from(config.sharpen) * f64::from(1u32 << SHARPEN_FRAC_BITS) + 0.5) as i64
+            }),
+            chroma: chroma::FixedParams::new(config.chroma_denoise)?,
+            encode16: match config.sharpen > 0.0 || config.chroma_denoise > 0.0 {
+                true => Some(EncodeLut::new(16)?),
                 false => None,
             },
         })
@@ -1057,7 +1191,7 @@ impl<'a> FixedPipeline<'a> {
     pub fn scratch_len(&self, width: usize, height: usize) -> Option<usize> {
         let denoise = self.denoise.is_some().then_some(FIXED_WORK_RATIO);
         let extra =
-            extra_len::<Fixed<u16>>(self.method, self.sharpen_q12.is_some(), denoise, width)?;
+            extra_len::<Fixed<u16>, i32>(self.method, self.detail_stages(), denoise, width)?;
         engine_scratch_len(self.distortion.as_ref(), extra, width, height)
     }
 
@@ -1464,7 +1598,7 @@ impl Path for FixedPipeline<'_> {
     }
 
     fn encoded_row(&self, row: &[u16], out: &mut [u16]) {
-        let Some((_, encode16)) = &self.sharpen_q12 else {
+        let Some(encode16) = &self.encode16 else {
             return;
         };
         for (px, rgb) in out.chunks_exact_mut(3).zip(row.chunks_exact(3)) {
@@ -1477,7 +1611,7 @@ impl Path for FixedPipeline<'_> {
     }
 
     fn sharpen_row<O: OutputSample>(&self, rows: [&[u16]; 3], out: &mut [O]) {
-        let Some((amount, _)) = self.sharpen_q12 else {
+        let Some(amount) = self.sharpen_q12 else {
             return;
         };
         // Luma < 2^16, so the column sums (x4) and the blur sums (x16) fit u32.
@@ -1488,18 +1622,89 @@ impl Path for FixedPipeline<'_> {
                 + (1 << 15))
                 >> 16
         };
-        let to_output = |v: i64| match O::BITS {
-            8 => O::from_code(((v * 255 + 32767) / 65535) as u32),
-            _ => O::from_code(v as u32),
-        };
         sharpen_pixels(rows, luma, |x, e, y, blurred| {
-            // 16 times the detail times the Q12 amount: shift by 4 + 12, rounding.
-            let detail16 = 16 * i64::from(y) - i64::from(blurred);
-            let add = (amount * detail16 + (1 << 15)) >> 16;
+            let add = sharpen_add(amount, y, blurred);
             for (o, v) in out[3 * x..3 * x + 3].iter_mut().zip(e) {
-                *o = to_output((i64::from(v) + add).clamp(0, 65535));
+                *o = code16_to_output((i64::from(v) + add).clamp(0, 65535));
             }
         });
+    }
+
+    fn detail_stages(&self) -> Detail {
+        Detail::of(self.sharpen_q12.is_some(), self.chroma.is_some())
+    }
+
+    type Chroma = i32;
+
+    fn chroma_rows(part: &mut [u16]) -> &mut [i32] {
+        // The part holds one element more than the rows need, for the alignment.
+        bytemuck::pod_align_to_mut::<u16, i32>(part).1
+    }
+
+    fn chroma_split_row(
+        &self,
+        row: &[u16],
+        encoded: &mut [u16],
+        split: &mut [i32],
+        out: &mut [i32],
+    ) -> Result<(), IspError> {
+        let Some(params) = &self.chroma else {
+            return Ok(());
+        };
+        self.encoded_row(row, encoded);
+        chroma::split_row_u16(encoded, split)?;
+        chroma::horizontal_i32(params, split, out)
+    }
+
+    fn chroma_row<O: OutputSample>(
+        &self,
+        rows: [&[i32]; chroma::TAPS],
+        work: &mut [i32],
+        out: &mut [O],
+    ) -> Result<(), IspError> {
+        let Some(params) = &self.chroma else {
+            return Ok(());
+        };
+        chroma::vertical_i32(params, rows, work)?;
+        let work: &[i32] = work;
+        let mut emit = |x: usize, add: i64| {
+            let p = &work[chroma::SPLIT * x..chroma::SPLIT * (x + 1)];
+            for (o, c) in out[3 * x..3 * x + 3].iter_mut().zip(&p[1..]) {
+                let v = i64::from(p[0]) + i64::from(*c) + add;
+                *o = code16_to_output(v.clamp(0, 65535));
+            }
+        };
+        match self.sharpen_q12 {
+            None => (0..work.len() / chroma::SPLIT).for_each(|x| emit(x, 0)),
+            Some(amount) => {
+                let r = chroma::RADIUS;
+                let rows = [rows[r - 1], rows[r], rows[r + 1]];
+                // Luma is a 16-bit code, as the sharpening stage's own.
+                sharpen_pixels(
+                    rows,
+                    |p: [i32; 4]| p[0] as u32,
+                    |x, _, y, blurred| emit(x, sharpen_add(amount, y, blurred)),
+                );
+            }
+        }
+        Ok(())
+    }
+}
+
+/// What the fixed path's sharpening adds to each 16-bit code: 16 times the detail (`luma`
+/// against the 3x3 binomial sum `blurred`) times the Q12 amount, shifted by 4 + 12, rounding.
+#[inline(always)]
+fn sharpen_add(amount: i64, luma: u32, blurred: u32) -> i64 {
+    let detail16 = 16 * i64::from(luma) - i64::from(blurred);
+    (amount * detail16 + (1 << 15)) >> 16
+}
+
+/// A 16-bit code (`0..=65535`) at the output's depth: rounded to 8 bits, or as it is.
+#[inline(always)]
+fn code16_to_output<O: OutputSample>(v: i64) -> O {
+    match O::BITS {
+        8 => O::from_code(((v * 255 + 32767) / 65535) as u32),
+        _ => O::from_code(v as u32),
     }
 }
 
@@ -1987,10 +2192,8 @@ fn run_rows<A: Path, O: OutputSample>(
         Input::Mosaic(_) => directional_len::<A::Directional>(path.method(), w).ok_or(too_wide)?,
         Input::Linear(_) => 0,
     };
-    let sharpen_part = match path.sharpen_on() {
-        true => w.checked_mul(3 * SHARPEN_ROWS).ok_or(too_wide)?,
-        false => 0,
-    };
+    let detail = path.detail_stages();
+    let detail_part = detail.len::<A::P, A::Chroma>(w).ok_or(too_wide)?;
     let nr_params = match input {
         Input::Mosaic(raw) => path.nr_params(raw.mosaic().pattern())?,
         Input::Linear(_) => match path.nr_params(CfaPattern::Rggb)? {
@@ -2014,7 +2217,7 @@ fn run_rows<A: Path, O: OutputSample>(
     let base = scratch_len(w)
         .and_then(|b| {
             b.checked_add(directional_part)?
-                .checked_add(sharpen_part)?
+                .checked_add(detail_part)?
                 .checked_add(denoise_part)
         })
         .ok_or(too_wide)?;
@@ -2031,7 +2234,7 @@ fn run_rows<A: Path, O: OutputSample>(
     // of corrected rows is, and the demosaiced ring takes all the scratch left.
     let (window_ring, rest) = rest.split_at_mut(RGB_ROWS * 3 * w);
     let (planes, rest) = rest.split_at_mut(directional_part);
-    let (sharpen_ring, rest) = rest.split_at_mut(sharpen_part);
+    let (detail_ring, rest) = rest.split_at_mut(detail_part);
     let (denoise_scratch, rest) = rest.split_at_mut(denoise_part);
     let denoiser = match nr_params {
         Some(params) => {
@@ -2081,32 +2284,64 @@ fn run_rows<A: Path, O: OutputSample>(
         corrected_ring,
         corrected_window: RowWindow::default(),
         needed: distortion.and_then(|lens| {
-            let extra = directional_part + sharpen_part + denoise_part;
+            let extra = directional_part + detail_part + denoise_part;
             engine_scratch_len(Some(lens), extra, w, h)
         }),
         provided,
     };
-    let mut sharpen_window = RowWindow::default();
-    for y in rows.clone() {
-        let out_row = out.row_mut(y - rows.start);
-        if sharpen_part == 0 {
-            path.finish_row(engine.linear_rgb_row(y)?, out_row);
-            continue;
-        }
-        // The sharpening window: encoded rows y - 1 ..= y + 1.
-        let taps = [-1isize, 0, 1].map(|dy| reflect(y as isize + dy, h));
-        let (lo, hi) = (taps[0].min(y), taps[2].max(y));
-        for range in sharpen_window.request(lo, hi, SHARPEN_ROWS) {
-            for v in range {
-                let slot = v % SHARPEN_ROWS;
-                let row = engine.linear_rgb_row(v)?;
-                path.encoded_row(row, &mut sharpen_ring[slot * 3 * w..(slot + 1) * 3 * w]);
+    match detail {
+        Detail::Off => {
+            for y in rows.clone() {
+                path.finish_row(engine.linear_rgb_row(y)?, out.row_mut(y - rows.start));
             }
         }
-        let ring: &[A::P] = sharpen_ring;
-        let encoded =
-            taps.map(|v| &ring[(v % SHARPEN_ROWS) * 3 * w..(v % SHARPEN_ROWS + 1) * 3 * w]);
-        path.sharpen_row(encoded, out_row);
+        Detail::Sharpen => {
+            let mut window = RowWindow::default();
+            for y in rows.clone() {
+                // The sharpening window: encoded rows y - 1 ..= y + 1.
+                let taps = [-1isize, 0, 1].map(|dy| reflect(y as isize + dy, h));
+                let (lo, hi) = (taps[0].min(y), taps[2].max(y));
+                for range in window.request(lo, hi, SHARPEN_ROWS) {
+                    for v in range {
+                        let slot = v % SHARPEN_ROWS;
+                        let row = engine.linear_rgb_row(v)?;
+                        path.encoded_row(row, &mut detail_ring[slot * 3 * w..(slot + 1) * 3 * w]);
+                    }
+                }
+                let ring: &[A::P] = detail_ring;
+                let encoded =
+                    taps.map(|v| &ring[(v % SHARPEN_ROWS) * 3 * w..(v % SHARPEN_ROWS + 1) * 3 * w]);
+                path.sharpen_row(encoded, out.row_mut(y - rows.start));
+            }
+        }
+        Detail::Chroma => {
+            let (encoded, split_rows) = detail_ring.split_at_mut(3 * w);
+            let split_rows = A::chroma_rows(split_rows);
+            let len = chroma::SPLIT * w;
+            let (ring, rest) = split_rows.split_at_mut(chroma::TAPS * len);
+            let (split, rest) = rest.split_at_mut(len);
+            let work = &mut rest[..len];
+            let mut window = RowWindow::default();
+            for y in rows.clone() {
+                // The vertical pass's window: split rows y - RADIUS ..= y + RADIUS.
+                let taps: [usize; chroma::TAPS] = core::array::from_fn(|k| {
+                    reflect(y as isize + k as isize - chroma::RADIUS as isize, h)
+                });
+                let lo = taps.iter().fold(y, |m, v| m.min(*v));
+                let hi = taps.iter().fold(y, |m, v| m.max(*v));
+                for range in window.request(lo, hi, chroma::TAPS) {
+                    for v in range {
+                        let slot = (v % chroma::TAPS) * len;
+                        let row = engine.linear_rgb_row(v)?;
+                        let out = &mut ring[slot..slot + len];
+                        path.chroma_split_row(row, encoded, split, out)?;
+                    }
+                }
+                let ring: &[A::Chroma] = ring;
+                let window_rows = taps.map(|v| &ring[(v % chroma::TAPS) * len..][..len]);
+                path.chroma_row(window_rows, work, out.row_mut(y - rows.start))?;
+            }
+        }
     }
     Ok(())
 }

@@ -61,6 +61,7 @@ fn full_pipeline_run_allocates_nothing() {
     let with_lens = IspConfig {
         distortion: Some(lens),
         sharpen: 0.5,
+        chroma_denoise: 1.0,
         denoise: 1.0,
         noise: Some(NoiseProfile::uniform(0.0032, 1.5e-5).unwrap()),
         ..IspConfig::default()
@@ -103,6 +104,7 @@ fn full_pipeline_run_allocates_nothing() {
             curve,
         },
         sharpen: 0.5,
+        chroma_denoise: 1.0,
     };
     let float = FloatPipeline::new(&config).unwrap();
     float

@@ -171,6 +171,8 @@ pub fn isp_pipeline(data: &[u8]) {
         // Every knee in [0, 1] in steps of 1/127, the top one off.
         highlight_knee: f32::from(head[11] >> 1) / 127.0,
         distortion: lens.filter(|_| head[10] & 1 == 1),
+        // Chroma noise reduction's strength in [0, 4) in steps of 1/32, 0 off.
+        chroma_denoise: f32::from(head[10] >> 1) / 32.0,
         ..IspConfig::default()
     };
     let Some(len) = config.scratch_len(w, h) else {

@@ -143,6 +143,8 @@ pub struct Settings {
     pub distortion: Option<LensDistortion>,
     /// See the pipeline docs.
     pub sharpen: f32,
+    /// See the pipeline docs.
+    pub chroma_denoise: f32,
 }
 
 impl Settings {
@@ -167,6 +169,7 @@ impl Settings {
             ccm: self.ccm,
             tone: self.tone,
             sharpen: self.sharpen,
+            chroma_denoise: self.chroma_denoise,
         }
     }
 
@@ -186,6 +189,7 @@ impl Settings {
             method: Method::Bilinear,
             distortion: None,
             sharpen: 0.0,
+            chroma_denoise: 0.0,
         }
     }
 }
@@ -573,12 +577,19 @@ fn finish_reference(rgb: Vec<[f64; 3]>, w: usize, h: usize, s: &Settings) -> Vec
             tone_reference(&s.tone, lin).map(srgb_reference)
         })
         .collect();
+    let luma = |p: &[f64; 3]| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
+    let encoded = match s.chroma_denoise {
+        0.0 => encoded,
+        strength => chroma_reference(&encoded, w, h, strength as f64),
+    };
     if s.sharpen == 0.0 {
-        return encoded;
+        return encoded
+            .iter()
+            .map(|p| p.map(|v| v.clamp(0.0, 1.0)))
+            .collect();
     }
     // Unsharp mask on Rec. 709 luma: the luma's difference from its 3x3 binomial blur
     // (reflect-101), times the amount, added to each channel.
-    let luma = |p: &[f64; 3]| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
     (0..w * h)
         .map(|i| {
             let (x, y) = ((i % w) as i64, (i / w) as i64);
@@ -593,4 +604,47 @@ fn finish_reference(rgb: Vec<[f64; 3]>, w: usize, h: usize, s: &Settings) -> Vec
             encoded[i].map(|v| (v + detail).clamp(0.0, 1.0))
         })
         .collect()
+}
+
+/// Chroma noise reduction from its documented semantics (isp-core's `chroma` module docs):
+/// each pixel as luma and chroma, chroma the edge-aware mean over 7 pixels along the row, then
+/// over 7 along the column of that, luma kept; unclamped.
+fn chroma_reference(encoded: &[[f64; 3]], w: usize, h: usize, strength: f64) -> Vec<[f64; 3]> {
+    let (ty, tc) = (0.08 * strength, 0.15 * strength);
+    let luma = |p: &[f64; 3]| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
+    // (luma, chroma) of every pixel.
+    let split: Vec<(f64, [f64; 3])> = encoded
+        .iter()
+        .map(|p| {
+            let y = luma(p);
+            (y, p.map(|v| v - y))
+        })
+        .collect();
+    let pass = |input: &[(f64, [f64; 3])], along_row: bool| -> Vec<(f64, [f64; 3])> {
+        (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as i64, (i / w) as i64);
+                let (yp, cp) = input[i];
+                let mut sum = [0.0; 3];
+                let mut den = 0.0;
+                for k in -3..=3i64 {
+                    let j = if along_row {
+                        y as usize * w + mirror(x + k, w)
+                    } else {
+                        mirror(y + k, h) * w + x as usize
+                    };
+                    let (yq, cq) = input[j];
+                    let dc: f64 = (0..3).map(|c| (cq[c] - cp[c]).abs()).sum();
+                    let weight = (1.0 - (yq - yp).abs() / ty - dc / tc).max(0.0);
+                    for c in 0..3 {
+                        sum[c] += weight * cq[c];
+                    }
+                    den += weight;
+                }
+                (yp, sum.map(|v| v / den))
+            })
+            .collect()
+    };
+    let filtered = pass(&pass(&split, true), false);
+    filtered.iter().map(|(y, c)| c.map(|v| y + v)).collect()
 }

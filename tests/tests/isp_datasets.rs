@@ -135,6 +135,7 @@ fn fixed_path_agrees_with_float_over_kodak_and_mcmaster() {
                 dynamic_threshold: (i % 4 == 0).then_some(600),
             },
             sharpen: [0.0, 1.0, 0.5][(i / 2) % 3],
+            chroma_denoise: [0.0, 1.0, 2.0][(i / 4) % 3],
             ..IspConfig::default()
         }
     });
@@ -150,6 +151,7 @@ fn directional_fixed_path_agrees_with_float_over_kodak_and_mcmaster() {
         highlight_knee: [0.9, 1.0, 0.8][i % 3],
         denoise: [0.0, 1.0][i % 2],
         noise: Some(NoiseProfile::uniform(0.0032, 1.2e-5).unwrap()),
+        chroma_denoise: [0.0, 1.0][(i / 2) % 2],
         ccm: CCM,
         tone: Look::ALL[i % Look::ALL.len()].tone(),
         dpc: isp_core::dpc::DpcConfig {
@@ -213,6 +215,8 @@ fn camsim_isp_reproduces_the_float_semantics_on_kodak() {
         highlight_knee: camsim::develop::DEFAULT_HIGHLIGHT_KNEE,
         tone: Look::Vivid.tone(),
         sharpen: 0.6,
+        // Chroma noise reduction's default where noise reduction is on.
+        chroma_denoise: 1.0,
         ..Settings::plain()
     };
     let expected = reference(&frame, &settings);

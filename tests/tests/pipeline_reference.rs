@@ -185,6 +185,7 @@ fn settings_strategy(w: usize, h: usize) -> impl Strategy<Value = Settings> {
             proptest::option::of(lens(w, h)),
             prop_oneof![Just(1.0f32), 0.3f32..1.0],
             prop_oneof![Just(0.0f32), 0.0f32..4.0],
+            prop_oneof![Just(0.0f32), 0.05f32..4.0],
         ),
     )
         .prop_map(
@@ -197,7 +198,7 @@ fn settings_strategy(w: usize, h: usize) -> impl Strategy<Value = Settings> {
                 wb,
                 nr,
                 ccm,
-                (sat, contrast, curve, method, distortion, highlight_knee, sharpen),
+                (sat, contrast, curve, method, distortion, highlight_knee, sharpen, chroma_denoise),
             )| {
                 let mut defects: Vec<Defect> =
                     defects.into_iter().map(|(x, y)| Defect { x, y }).collect();
@@ -228,6 +229,7 @@ fn settings_strategy(w: usize, h: usize) -> impl Strategy<Value = Settings> {
                     method: Method::ALL[method],
                     distortion,
                     sharpen,
+                    chroma_denoise,
                 }
             },
         )
@@ -378,6 +380,7 @@ fn busy_settings() -> Settings {
             .unwrap(),
         ),
         sharpen: 0.8,
+        chroma_denoise: 1.0,
     }
 }
 

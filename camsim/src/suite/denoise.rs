@@ -255,7 +255,8 @@ fn codes(scene: &Scene, scale: Option<f64>, seed: u64) -> Vec<u16> {
 }
 
 /// camsim's development of `data`: the default method, float or fixed, noise reduction at
-/// `denoise` with `profile`; the output and the best of `repeats` runs in seconds.
+/// `denoise` with `profile` (and chroma noise reduction at its default with it); the output
+/// and the best of `repeats` runs in seconds.
 fn develop(
     scene: &Scene,
     data: &[u16],
@@ -278,6 +279,7 @@ fn develop(
         demosaic: DEFAULT_METHOD,
         denoise,
         noise: profile,
+        chroma_denoise: crate::develop::default_chroma_denoise(denoise),
         ..IspConfig::default()
     };
     let mut out = vec![0u8; 3 * scene.width * scene.height];

@@ -835,7 +835,8 @@ fn pipeline_suite(
                         "pipeline: {name}, {path} {} denoise {denoise}",
                         method.name()
                     ));
-                    let config = captured.isp_config(method, denoise)?;
+                    let chroma = crate::develop::default_chroma_denoise(denoise);
+                    let config = captured.isp_config(method, denoise, chroma)?;
                     let mut out = vec![0u8; w * h * 3];
                     Runner::new(&input, &config, fixed, 8, 1)?.best_ms(&mut out, 1)?;
                     let ms = Runner::new(&tiled_input, &config, fixed, 8, 1)?
@@ -863,7 +864,7 @@ fn pipeline_suite(
             });
         }
         progress(&format!("pipeline: {name}, OpenCV"));
-        let config = captured.isp_config(Method::Bilinear, 0.0)?;
+        let config = captured.isp_config(Method::Bilinear, 0.0, 0.0)?;
         let mut image = Vec::new();
         match opencv_pipeline(&settings.python, &raw, &config, 1, 1, Some(&mut image)).and_then(
             |_| opencv_pipeline(&settings.python, &tiled_frame, &config, 1, repeats, None),

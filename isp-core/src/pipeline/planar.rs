@@ -209,6 +209,7 @@ impl Planar for FixedPipeline<'_> {
         self.lsc.is_none()
             && self.distortion.is_none()
             && self.denoise.is_none()
+            && self.chroma.is_none()
             && self.saturation_q.is_none()
             && self.tone_lut.is_none()
             && self.encode.max() == 255
@@ -274,14 +275,14 @@ impl Planar for FixedPipeline<'_> {
 
     fn sharpening(&self) -> Option<i32> {
         // The amount is at most 4 in Q12.
-        self.sharpen_q12.as_ref().map(|(amount, _)| *amount as i32)
+        self.sharpen_q12.map(|amount| amount as i32)
     }
 
     #[inline(always)]
     fn encode_for_sharpening(&self, v: u16) -> u16 {
-        match &self.sharpen_q12 {
+        match &self.encode16 {
             // Codes of a 16-bit table fit u16.
-            Some((_, encode16)) => encode16.lookup16(v) as u16,
+            Some(encode16) => encode16.lookup16(v) as u16,
             None => v,
         }
     }
@@ -355,6 +356,7 @@ impl Planar for FloatPipeline<'_> {
         c.lsc.is_none()
             && c.active_distortion().is_none()
             && c.denoise == 0.0
+            && c.chroma_denoise == 0.0
             && c.tone.saturation_is_identity()
             && c.tone.curve_is_identity()
     }

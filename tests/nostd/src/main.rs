@@ -108,8 +108,9 @@ fn directional_runs() -> bool {
     directional_fixed(&mosaic, &mut out, &mut scratch).is_ok() && rgb.iter().all(|v| *v == 1000)
 }
 
-/// The whole fixed-point ISP on a flat 8x4 frame in stack buffers, with MHC, with the
-/// directional method and with distortion correction: 0.5 linear is sRGB 188.
+/// The whole fixed-point ISP on a flat 8x4 frame in stack buffers, with MHC, with chroma noise
+/// reduction and sharpening, with the directional method and with distortion correction: 0.5
+/// linear is sRGB 188.
 fn pipeline_runs() -> bool {
     use isp_core::frame::{RawFrame, RgbViewMut};
     use isp_core::pipeline::{FixedPipeline, IspConfig};
@@ -164,6 +165,28 @@ fn pipeline_runs() -> bool {
         return false;
     }
     let mut scratch = [0u16; DIRECTIONAL];
+    let mut rgb = [0u8; 96];
+    let Ok(mut out) = RgbViewMut::new(&mut rgb, 8, 4, 24) else {
+        return false;
+    };
+    if !(pipeline.run(&raw, 0..4, &mut scratch, &mut out).is_ok() && rgb.iter().all(|v| *v == 188))
+    {
+        return false;
+    }
+    // Again with chroma noise reduction and sharpening after encoding: a ring of seven split
+    // rows of i32 (two u16 each, plus one for alignment) and the encoded row, 75 per pixel.
+    let detail = IspConfig {
+        chroma_denoise: 1.0,
+        sharpen: 0.5,
+        ..config
+    };
+    let Ok(pipeline) = FixedPipeline::new(&detail, 8) else {
+        return false;
+    };
+    if detail.scratch_len(8, 4) != Some(14 * 8 + NR + 75 * 8 + 1) {
+        return false;
+    }
+    let mut scratch = [0u16; 14 * 8 + NR + 75 * 8 + 1];
     let mut rgb = [0u8; 96];
     let Ok(mut out) = RgbViewMut::new(&mut rgb, 8, 4, 24) else {
         return false;

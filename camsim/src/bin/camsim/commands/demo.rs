@@ -13,7 +13,7 @@ use crate::progress::RenderBar;
 /// A sensor preset.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum SensorArg {
-    /// Noise, shading and defects on at typical values.
+    /// Noise, shading, defects and an optical low-pass filter on at typical values.
     Realistic,
     /// Everything off.
     Ideal,
@@ -33,7 +33,7 @@ pub struct DemoArgs {
     /// Camera response: nikon-5100, canon-eos-5d-mark-ii, sigma-sdmerill or cie1931.
     #[arg(long, default_value = "nikon-5100")]
     pub camera: String,
-    /// Sensor preset: realistic (noise, shading, defects on) or ideal (all off).
+    /// Sensor preset: realistic (noise, shading, defects, optical low-pass filter on) or ideal (all off).
     #[arg(long, value_enum, default_value_t = SensorArg::Realistic)]
     pub sensor: SensorArg,
     /// Light the scene with this illuminant: A, D50, D65, FL2, FL11 or LED-B3 (the lights of
@@ -65,6 +65,14 @@ pub struct DemoArgs {
     /// Demosaicing (the methods the pipeline runs).
     #[arg(long, value_enum, default_value_t = PipelineDemosaicArg::Directional)]
     pub demosaic: PipelineDemosaicArg,
+    /// Noise reduction's strength, a multiplier on the default the sensor's noise profile
+    /// sets: [0, 4], 0 off [default: 1 with the realistic sensor, 0 with the ideal one].
+    #[arg(long)]
+    pub denoise: Option<f32>,
+    /// Chroma noise reduction's strength, [0, 4], 0 off [default: 1 where noise reduction is
+    /// on, else 0].
+    #[arg(long)]
+    pub chroma_denoise: Option<f32>,
     /// Print the JSON report instead of the readable one.
     #[arg(long)]
     pub json: bool,
@@ -95,6 +103,8 @@ impl DemoArgs {
             pattern: self.pattern.into(),
             awb: self.awb.into(),
             demosaic: self.demosaic.into(),
+            denoise: self.denoise,
+            chroma_denoise: self.chroma_denoise,
         }
     }
 }

@@ -89,6 +89,12 @@ pub struct ProcessingArgs {
     /// else 0]. Raw-domain non-local means, distances in units of the profile's variance.
     #[arg(long)]
     pub denoise: Option<f32>,
+    /// Chroma noise reduction's strength, [0, 4], 0 off: an edge-aware mean of each pixel's
+    /// chroma over its neighbours after sRGB encoding, which keeps luma and takes out the
+    /// colour mottling noise leaves after demosaicing [default: 1 where noise reduction is
+    /// on, else 0].
+    #[arg(long)]
+    pub chroma_denoise: Option<f32>,
     /// The raw's noise profile: S,O for every colour, or S,O per colour R, G, B (six values),
     /// the variance of a sample at signal x (a fraction of white above black) being S x + O,
     /// as the DNG NoiseProfile tag states it [default: the file's NoiseProfile, else estimated
@@ -184,6 +190,7 @@ impl ProcessingArgs {
             baseline_exposure: self.no_baseline_exposure.then_some(false),
             highlight_knee: self.highlight_knee,
             sharpen: self.sharpen,
+            chroma_denoise: self.chroma_denoise,
         })
     }
 
