@@ -591,10 +591,19 @@ pub fn capture(
         }
         _ => None,
     };
+    // The truth is what reaches the pixels: after the optical low-pass filter, if the sensor
+    // has one (it is part of the optics, as the lens's blur is part of the render).
+    let seen = match config.olpf {
+        true => std::borrow::Cow::Owned(sensor::olpf(
+            &image.rgb,
+            image.width as usize,
+            image.height as usize,
+        )),
+        false => std::borrow::Cow::Borrowed(&image.rgb),
+    };
     let truth_linear: Vec<f32> = match adapt {
-        None => image.rgb.iter().map(|v| v * scale).collect(),
-        Some(m) => image
-            .rgb
+        None => seen.iter().map(|v| v * scale).collect(),
+        Some(m) => seen
             .chunks_exact(3)
             .flat_map(|p| {
                 colour::mat3_mul_vec(&m, [p[0], p[1], p[2]].map(f64::from))

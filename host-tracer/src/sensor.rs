@@ -7,6 +7,9 @@
 //!    radiance times the camera's sensitivity ([`Response`]). Sensitivities are normalised so an
 //!    equal-energy spectrum of luminance 1 gives green 1. RGB-only scenes take the RGB path:
 //!    camera RGB is the rendered linear sRGB.
+//!    With [`SensorConfig::olpf`] on (the realistic preset), an optical low-pass filter then
+//!    blurs the radiance by `[1 2 1] / 4` along each axis ([`olpf`]), as the birefringent plate
+//!    in front of most cameras' sensors does; the truth is taken after it.
 //! 2. **Exposure**: the pixel's irradiance is `pi L / (4 N^2)` (thin lens, object far away);
 //!    electrons = irradiance x exposure time x `sensitivity_e_per_lux_s` x `qe_scale`, times the
 //!    lens's vignetting (cos^4 of the field angle) and a colour-shading term that takes a
@@ -315,6 +318,12 @@ pub struct SensorConfig {
     pub shading: ShadingConfig,
     /// Defective pixels.
     pub defects: DefectConfig,
+    /// An optical low-pass (anti-aliasing) filter in front of the sensor: a four-spot
+    /// birefringent plate splitting each ray by one pixel pitch, which blurs the radiance by
+    /// `[1 2 1] / 4` along each axis (reflect-101 at the frame's edges). Its response is zero
+    /// at the Nyquist frequency, so an edge sharper than the CFA can sample does not alias into
+    /// false colour after demosaicing. The truth is the radiance before it.
+    pub olpf: bool,
     /// Seed of the sensor's fixed patterns (PRNU, DSNU, defects).
     pub seed: u64,
     /// Seed of this frame's temporal noise.
@@ -350,6 +359,7 @@ impl SensorConfig {
             noise: NoiseConfig::default(),
             shading: ShadingConfig::default(),
             defects: DefectConfig::default(),
+            olpf: false,
             seed: 1,
             frame_seed: 1,
         }
@@ -358,7 +368,8 @@ impl SensorConfig {
     /// [`Self::ideal`] with everything on at values typical of a small modern sensor: shot
     /// noise, 2.5 e- read noise, 5 e-/s dark current, 1 % PRNU, 1 e- DSNU, 0.5 e- row and
     /// column noise, cos^4 vignetting with colour shading (R loses 12 %, B 6 % more at the
-    /// corner), and 100 hot, 50 dead and 20 stuck pixels per million.
+    /// corner), 100 hot, 50 dead and 20 stuck pixels per million, and an optical low-pass
+    /// filter.
     pub fn realistic() -> Self {
         Self {
             noise: NoiseConfig {
@@ -379,6 +390,7 @@ impl SensorConfig {
                 dead_per_million: 50.0,
                 stuck_per_million: 20.0,
             },
+            olpf: true,
             ..Self::ideal()
         }
     }
@@ -662,12 +674,14 @@ pub fn capture(
         .collect();
     let dark_e = noise.dark_current_e_per_s * exposure_s;
 
+    let filtered = config.olpf.then(|| olpf(camera_rgb, width, height));
+    let seen = filtered.as_deref().unwrap_or(camera_rgb);
     let mut raw = vec![0u16; width * height];
     let mut truth_camera = vec![0.0f32; width * height * 3];
     for y in 0..height {
         for x in 0..width {
             let i = y * width + x;
-            let rgb = &camera_rgb[3 * i..3 * i + 3];
+            let rgb = &seen[3 * i..3 * i + 3];
             for c in 0..3 {
                 truth_camera[3 * i + c] = (rgb[c] as f64 * units_per_radiance) as f32;
             }
@@ -714,6 +728,39 @@ pub fn capture(
         shading,
         noise_profile,
     })
+}
+
+/// The optical low-pass filter ([`SensorConfig::olpf`]) on interleaved RGB (`3 * width *
+/// height` values, linear): `[1 2 1] / 4` along rows, then along columns, reflect-101 at the
+/// edges (a side of one pixel is left as it is along that axis). Linear and the same for each
+/// channel, so it commutes with any colour matrix: the demo's truth in linear sRGB takes it
+/// as the raw's camera RGB does.
+pub fn olpf(rgb: &[f32], width: usize, height: usize) -> Vec<f32> {
+    let reflect = |i: isize, n: usize| -> usize {
+        if n == 1 {
+            0
+        } else if i < 0 {
+            1
+        } else if i as usize >= n {
+            n - 2
+        } else {
+            i as usize
+        }
+    };
+    let pass = |src: &[f32], step: usize, n: usize| -> Vec<f32> {
+        let mut out = vec![0.0f32; src.len()];
+        for (i, o) in out.iter_mut().enumerate() {
+            let p = i / 3;
+            let k = (p / step) % n; // position along the axis
+            let base = p - k * step;
+            let at = |j: isize| src[3 * (base + reflect(j, n) * step) + i % 3];
+            let k = k as isize;
+            *o = 0.25 * at(k - 1) + 0.5 * at(k) + 0.25 * at(k + 1);
+        }
+        out
+    };
+    let rows = pass(rgb, 1, width);
+    pass(&rows, width, height)
 }
 
 /// The exposure time that puts the 99th percentile of the brightest channel (after shading)
@@ -785,6 +832,50 @@ fn inject_defects(
 
 #[cfg(test)]
 mod tests {
+    /// The low-pass filter keeps a flat field and the mean, takes out a pattern at the
+    /// Nyquist frequency along either axis (alternate columns, alternate rows) entirely, and
+    /// keeps each channel apart.
+    #[test]
+    fn olpf_removes_the_nyquist_frequency_and_keeps_flat_fields() {
+        use super::olpf;
+        let (w, h) = (6, 4);
+        let flat = vec![0.3f32; 3 * w * h];
+        assert!(olpf(&flat, w, h).iter().all(|v| (v - 0.3).abs() < 1e-6));
+        for by_column in [true, false] {
+            let stripes: Vec<f32> = (0..3 * w * h)
+                .map(|i| {
+                    let (x, y, c) = ((i / 3) % w, (i / 3) / w, i % 3);
+                    let on = if by_column { x % 2 } else { y % 2 } == 1;
+                    if on {
+                        [1.0, 0.5, 0.0][c]
+                    } else {
+                        0.0
+                    }
+                })
+                .collect();
+            let out = olpf(&stripes, w, h);
+            // Away from the frame's edges the stripes become their mean, per channel.
+            for y in 1..h - 1 {
+                for x in 1..w - 1 {
+                    for c in 0..3 {
+                        let v = out[3 * (y * w + x) + c];
+                        assert!((v - [0.5, 0.25, 0.0][c]).abs() < 1e-6, "{x} {y} {c}: {v}");
+                    }
+                }
+            }
+        }
+        // A single pixel is left as it is; two (reflect-101: each is the other's neighbour on
+        // both sides) become their mean along that axis only.
+        assert_eq!(olpf(&[0.1, 0.2, 0.3], 1, 1), vec![0.1, 0.2, 0.3]);
+        let pair = [0.1f32, 0.2, 0.3, 0.4, 0.5, 0.6];
+        for (w, h) in [(1, 2), (2, 1)] {
+            let out = olpf(&pair, w, h);
+            for (v, mean) in out.iter().zip([0.25, 0.35, 0.45, 0.25, 0.35, 0.45]) {
+                assert!((v - mean).abs() < 1e-6, "{w}x{h}: {out:?}");
+            }
+        }
+    }
+
     use super::*;
     use isp_core::CfaColour;
 
