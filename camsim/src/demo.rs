@@ -573,24 +573,40 @@ pub fn capture(
         .map_err(|e| Error::in_stage("colour matrix", e))?
         .ccm;
 
-    // The truth's scale: a neutral under the light with camera green g (in ISP units) comes
-    // out of a perfect ISP with luminance g.
-    let green_per_luminance = light.map_or(1.0, |(xyz, rgb)| rgb[1] / xyz[1]);
-    let scale = (capture.units_per_radiance * green_per_luminance) as f32;
-    // Under another light than D65 the truth is the scene as a white-balanced camera shows
-    // it: its colours adapted (Bradford) from the light's white to sRGB's D65 white, which is
-    // what the ISP's white balance and colour matrix aim at.
-    let adapt = match light {
-        Some((white, _)) if !spectral || illuminant != "D65" => {
-            let white = white.map(|v| v / white[1]);
-            let to_d65 = colour::bradford_adaptation(white, colour::xy_to_xyz(colour::D65_XY)?)?;
-            Some(colour::mat3_mul(
+    // The truth is the scene as a perfectly white-balanced camera shows it, scaled so that a
+    // neutral with camera green g (in ISP units) comes out of a perfect ISP at g.
+    // - An RGB scene (camera RGB is linear sRGB, and the colour matrix is the identity): the
+    //   ISP's white balance divides each channel by the light's, so the truth is the render
+    //   with channel c times L_g / L_c (von Kries in the render's own space). An RGB render is
+    //   linear per channel, so that is exactly the scene under a white light of the same green.
+    // - A spectral scene under another light than D65: its colours adapted (Bradford) from
+    //   the light's white to sRGB's D65 white, which is what the white balance and the colour
+    //   matrix aim at, at the luminance of the neutral's camera green.
+    let upr = capture.units_per_radiance;
+    let (scale, adapt) = match light {
+        Some((_, rgb)) if !spectral => {
+            let diag = [
+                [rgb[1] / rgb[0], 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.0, 0.0, rgb[1] / rgb[2]],
+            ];
+            (upr, Some(diag))
+        }
+        Some((white, rgb)) if illuminant != "D65" => {
+            let to_d65 = colour::bradford_adaptation(
+                white.map(|v| v / white[1]),
+                colour::xy_to_xyz(colour::D65_XY)?,
+            )?;
+            let m = colour::mat3_mul(
                 &colour::XYZ_TO_LINEAR_SRGB,
                 &colour::mat3_mul(&to_d65, &colour::LINEAR_SRGB_TO_XYZ),
-            ))
+            );
+            (upr * rgb[1] / white[1], Some(m))
         }
-        _ => None,
+        Some((white, rgb)) => (upr * rgb[1] / white[1], None),
+        None => (upr, None),
     };
+    let scale = scale as f32;
     // The truth is what reaches the pixels: after the optical low-pass filter, if the sensor
     // has one (it is part of the optics, as the lens's blur is part of the render).
     let seen = match config.olpf {
