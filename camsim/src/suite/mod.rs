@@ -900,7 +900,7 @@ fn pipeline_suite(
         ),
         stages:
             "static defects, lens shading, white balance (AWB), demosaic, denoise, highlights, \
-                 colour matrix, sRGB encoding; one thread"
+                 colour matrix, sRGB encoding, chroma denoise (on with denoise); one thread"
                 .into(),
         points,
         copy,
