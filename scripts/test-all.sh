@@ -43,6 +43,9 @@ CARGO_TARGET_DIR="$PWD/target/nostd" cargo build --release --locked --manifest-p
 ./target/nostd/release/camsim-nostd-check
 echo "camsim-nostd-check: optics-core and isp-core linked without std or an allocator, answers correct"
 
+step "firmware targets (Cortex-M4F/M7F, Cortex-M33, AArch64: build and clippy, warnings are errors)"
+bash scripts/firmware-check.sh
+
 step "docs (cargo doc, warnings are errors)"
 RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --locked
 

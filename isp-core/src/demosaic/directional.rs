@@ -745,6 +745,7 @@ impl Span {
 }
 
 /// Sites per block of [`Blocks`] in the AVX-512 build: one vector of `i32`.
+#[cfg(target_arch = "x86_64")]
 pub(crate) const LANES_AVX512: usize = 16;
 /// Sites per block of [`Blocks`] in the other builds: one AVX2 vector of `i32`. Sixteen, two
 /// AVX2 vectors per value, spilled more than it gained on AVX2's sixteen registers: the fixed

@@ -32,7 +32,9 @@
 use core::ops::Range;
 
 use super::{FixedPipeline, FloatPipeline, OutputSample, Path, CHUNK, IDENTITY, MOSAIC_ROWS};
-use crate::demosaic::directional::{Arithmetic, OutputRow, Stream, HALO, LANES, LANES_AVX512};
+#[cfg(target_arch = "x86_64")]
+use crate::demosaic::directional::LANES_AVX512;
+use crate::demosaic::directional::{Arithmetic, OutputRow, Stream, HALO, LANES};
 use crate::demosaic::planar::{demosaic_row, Halves};
 use crate::demosaic::{reflect, Method};
 use crate::dpc;

@@ -14,9 +14,10 @@
 //! (1.72 exactly), and its 1e-20 against division by zero (negligible on this scale) by
 //! handling zero exactly. Each value's bound is stated where it is formed.
 
+#[cfg(target_arch = "x86_64")]
+use super::LANES_AVX512;
 use super::{
-    at, for_each_block, lane, store, Arithmetic, Blocks, Frame, Planes, Span, LANES, LANES_AVX512,
-    SMOOTH_PERCENT,
+    at, for_each_block, lane, store, Arithmetic, Blocks, Frame, Planes, Span, LANES, SMOOTH_PERCENT,
 };
 use crate::frame::{IntSample, MosaicView, RgbViewMut};
 use crate::math::nearest;
@@ -210,8 +211,13 @@ impl Wide for Exact {
     }
 }
 
-/// A [`Wide`] as its low 32 bits and an `f32` estimate.
+/// A [`Wide`] as its low 32 bits and an `f32` estimate. [`Native`] on the targets whose `f32`
+/// is fast (x86-64, AArch64); elsewhere it is kept, and tested on the host, but unused.
 #[derive(Clone, Copy)]
+#[cfg_attr(
+    not(any(target_arch = "x86_64", target_arch = "aarch64")),
+    allow(dead_code)
+)]
 pub(crate) struct Estimated {
     low: i32,
     estimate: f32,
@@ -261,6 +267,10 @@ impl Wide for Estimated {
 /// less where the remainder `n - q d` is negative. `n` is the numerator's low word; the
 /// remainder, within `3 d / 4` of 0, is exact in it.
 #[inline(always)]
+#[cfg_attr(
+    not(any(target_arch = "x86_64", target_arch = "aarch64")),
+    allow(dead_code)
+)]
 fn floor_from(q: i32, n: i32, d: i32) -> i32 {
     let r = n.wrapping_sub(q.wrapping_mul(d));
     if r < 0 {
