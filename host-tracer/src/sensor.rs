@@ -736,17 +736,7 @@ pub fn capture(
 /// channel, so it commutes with any colour matrix: the demo's truth in linear sRGB takes it
 /// as the raw's camera RGB does.
 pub fn olpf(rgb: &[f32], width: usize, height: usize) -> Vec<f32> {
-    let reflect = |i: isize, n: usize| -> usize {
-        if n == 1 {
-            0
-        } else if i < 0 {
-            1
-        } else if i as usize >= n {
-            n - 2
-        } else {
-            i as usize
-        }
-    };
+    use isp_core::demosaic::reflect;
     let pass = |src: &[f32], step: usize, n: usize| -> Vec<f32> {
         let mut out = vec![0.0f32; src.len()];
         for (i, o) in out.iter_mut().enumerate() {

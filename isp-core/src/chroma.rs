@@ -68,10 +68,10 @@ pub const LUMA_RANGE: f32 = 0.08;
 /// `t_c` at strength 1, in encoded units: the summed chroma difference at which a neighbour
 /// has weight 0.
 pub const CHROMA_RANGE: f32 = 0.15;
-/// Rec. 709 luma weights (the sharpening stage's).
-const LUMA: [f32; 3] = [0.2126, 0.7152, 0.0722];
+/// Rec. 709 luma weights, this stage's and the sharpening stage's.
+pub(crate) const LUMA: [f32; 3] = [0.2126, 0.7152, 0.0722];
 /// [`LUMA`] in Q16, summing to 65536.
-const LUMA_Q16: [u32; 3] = [13933, 46871, 4732];
+pub(crate) const LUMA_Q16: [u32; 3] = [13933, 46871, 4732];
 /// Fractional bits of the fixed path's weights.
 const WEIGHT_BITS: u32 = 12;
 /// Fractional bits of the reciprocal of the weights' sum: a mean is off by at most

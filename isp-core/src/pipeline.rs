@@ -134,7 +134,7 @@
 
 use core::ops::Range;
 
-use crate::chroma;
+use crate::chroma::{self, LUMA, LUMA_Q16};
 use crate::demosaic::directional::{
     self, Arithmetic, Fixed, Float, OutputRow, SourceRow, Stream, LANES,
 };
@@ -175,10 +175,6 @@ pub const MAX_SHARPEN: f32 = 4.0;
 /// Split rows the chroma stage keeps: its vertical window, the row being split and the
 /// vertical pass's output.
 const CHROMA_ROWS: usize = chroma::TAPS + 2;
-/// Rec. 709 luma weights of the sharpening stage.
-const LUMA: [f32; 3] = [0.2126, 0.7152, 0.0722];
-/// [`LUMA`] in Q16, summing to 65536.
-const LUMA_Q16: [u32; 3] = [13933, 46871, 4732];
 /// Fractional bits of the fixed path's sharpening amount.
 const SHARPEN_FRAC_BITS: u32 = 12;
 /// Raw samples defect correction handles per chunk (a stack buffer, so the float path needs no
@@ -667,6 +663,8 @@ pub struct FloatPipeline<'a> {
     config: IspConfig<'a>,
     /// The exact 8-bit encoding as thresholds.
     codes8: EncodeThresholds8,
+    /// Chroma noise reduction's parameters, when it is on.
+    chroma: Option<chroma::FloatParams>,
 }
 
 impl<'a> FloatPipeline<'a> {
@@ -676,6 +674,7 @@ impl<'a> FloatPipeline<'a> {
         Ok(Self {
             config: *config,
             codes8: EncodeThresholds8::new(),
+            chroma: chroma::FloatParams::new(config.chroma_denoise)?,
         })
     }
 
@@ -1064,12 +1063,12 @@ impl Path for FloatPipeline<'_> {
         split: &mut [f32],
         out: &mut [f32],
     ) -> Result<(), IspError> {
-        let Some(params) = chroma::FloatParams::new(self.config.chroma_denoise)? else {
+        let Some(params) = &self.chroma else {
             return Ok(());
         };
         self.encoded_row(row, encoded);
         chroma::split_row_f32(encoded, split)?;
-        chroma::horizontal_f32(&params, split, out)
+        chroma::horizontal_f32(params, split, out)
     }
 
     fn chroma_row<O: OutputSample>(
@@ -1078,10 +1077,10 @@ impl Path for FloatPipeline<'_> {
         work: &mut [f32],
         out: &mut [O],
     ) -> Result<(), IspError> {
-        let Some(params) = chroma::FloatParams::new(self.config.chroma_denoise)? else {
+        let Some(params) = &self.chroma else {
             return Ok(());
         };
-        chroma::vertical_f32(&params, rows, work)?;
+        chroma::vertical_f32(params, rows, work)?;
         let work: &[f32] = work;
         let mut emit = |x: usize, detail: f32| {
             let p = &work[chroma::SPLIT * x..chroma::SPLIT * (x + 1)];
