@@ -1,27 +1,39 @@
 #!/usr/bin/env bash
-# The firmware cores built for real cores, warning-free: optics-core and isp-core for
-# thumbv7em-none-eabihf (Cortex-M4F/M7F), thumbv8m.main-none-eabihf (Cortex-M33) and
-# aarch64-unknown-none, each with `-D warnings` and clippy `-D warnings`.
+# The firmware cores on real cores:
+# 1. optics-core, isp-core and firmware-cases build for thumbv7em-none-eabihf (Cortex-M4F/M7F),
+#    thumbv8m.main-none-eabihf (Cortex-M33) and aarch64-unknown-none, each with `-D warnings`
+#    and clippy `-D warnings`;
+# 2. the firmware example (firmware/cortex-m) runs every firmware case under QEMU on mps2-an386
+#    (Cortex-M4F) and mps2-an505 (Cortex-M33), and each checksum equals the host's for the same
+#    frame and configuration (firmware-cases' host-checksums example; the workspace test
+#    tests/tests/firmware_cases.rs ties those to `camsim isp`'s development).
+# The runs' SysTick counts land in target/firmware/qemu-*.txt for scripts/firmware-budget.py.
 #
 # rustup cannot add a target on a machine without its network, but Debian's own Rust
 # (rustc-web, with the standard library's source in rust-web-src) cross-compiles for any target
-# LLVM knows through `-Z build-std=core`, which RUSTC_BOOTSTRAP=1 lets a stable compiler take.
+# LLVM knows through `-Z build-std`, which RUSTC_BOOTSTRAP=1 lets a stable compiler take;
+# rust-web-llvm's rust-lld (lld-22) links, and Debian's qemu-system-arm emulates the boards.
 # In CI (CI=true) the packages are installed when missing; on another machine without them the
-# check is skipped, loudly, and says how to run it. The recipe is in ARCHITECTURE.md.
+# checks are skipped, loudly, and the banner says how to run them. The recipe is in
+# ARCHITECTURE.md ("Firmware targets").
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 targets=(thumbv7em-none-eabihf thumbv8m.main-none-eabihf aarch64-unknown-none)
-packages=(rustc-web cargo-web rust-web-src rust-web-clippy)
+packages=(rustc-web cargo-web rust-web-src rust-web-clippy rust-web-llvm lld-22 qemu-system-arm)
+# Emulated boards: QEMU machine, the core it models, the firmware's target.
+boards=("mps2-an386 Cortex-M4F thumbv7em-none-eabihf" "mps2-an505 Cortex-M33 thumbv8m.main-none-eabihf")
+sizes=(64x48 128x96)
 
 have_toolchain() {
   [ -x /usr/bin/rustc ] && [ -x /usr/bin/cargo ] && [ -x /usr/bin/cargo-clippy ] &&
-    [ -d /usr/lib/rustlib/src/rust/library/core ]
+    [ -d /usr/lib/rustlib/src/rust/library/core ] && [ -x /usr/bin/rust-lld ] &&
+    command -v ld.lld-22 >/dev/null && command -v qemu-system-arm >/dev/null
 }
 
 if ! have_toolchain; then
   if [ "${CI:-}" = "true" ]; then
-    echo "installing Debian's cross-compiling Rust: ${packages[*]}"
+    echo "installing Debian's cross-compiling Rust and QEMU: ${packages[*]}"
     sudo_if_needed=()
     [ "$(id -u)" -eq 0 ] || sudo_if_needed=(sudo)
     "${sudo_if_needed[@]}" apt-get update -qq
@@ -31,10 +43,11 @@ if ! have_toolchain; then
     cat >&2 <<MSG
 
 ################################################################################
-# FIRMWARE CHECKS SKIPPED: Debian's cross-compiling Rust is not installed, so
-# optics-core and isp-core were NOT built for ${targets[*]}.
+# FIRMWARE CHECKS SKIPPED: Debian's cross-compiling Rust or QEMU is not installed,
+# so optics-core and isp-core were NOT built for ${targets[*]}
+# and the firmware example did NOT run on the emulated Cortex-M4 and Cortex-M33.
 # To run them: apt-get install --no-install-recommends ${packages[*]}
-# (CI installs them itself and fails if they do not build warning-free.)
+# (CI installs them itself and fails if anything differs from the host.)
 ################################################################################
 
 MSG
@@ -46,11 +59,42 @@ debian_cargo() {
   PATH="/usr/bin:$PATH" RUSTC=/usr/bin/rustc RUSTDOC=/usr/bin/rustdoc RUSTC_BOOTSTRAP=1 \
     CARGO_TARGET_DIR="$PWD/target/firmware" /usr/bin/cargo "$@"
 }
-echo "with $(/usr/bin/rustc --version)"
+echo "with $(/usr/bin/rustc --version) and $(qemu-system-arm --version | head -1)"
 for target in "${targets[@]}"; do
   RUSTFLAGS="-D warnings" debian_cargo build --release --locked -Z build-std=core \
-    --target "$target" -p optics-core -p isp-core
+    --target "$target" -p optics-core -p isp-core -p firmware-cases
   debian_cargo clippy --release --locked -Z build-std=core --target "$target" \
-    -p optics-core -p isp-core -- -D warnings
-  echo "$target: optics-core and isp-core build and pass clippy without a warning"
+    -p optics-core -p isp-core -p firmware-cases -- -D warnings
+  echo "$target: optics-core, isp-core and firmware-cases build and pass clippy without a warning"
+done
+
+# The firmware binary: compiler_builtins from source too, with its memcpy/memset (no libc).
+firmware_manifest=firmware/cortex-m/Cargo.toml
+cargo fmt --manifest-path "$firmware_manifest" -- --check
+build_std=(-Z build-std=core,compiler_builtins -Z build-std-features=compiler-builtins-mem)
+host_checksums=target/firmware/host-checksums.txt
+mkdir -p target/firmware
+cargo run --release --locked --quiet -p firmware-cases --example host-checksums -- "${sizes[@]}" \
+  >"$host_checksums"
+for board in "${boards[@]}"; do
+  read -r machine core target <<<"$board"
+  RUSTFLAGS="-D warnings" debian_cargo build --release --locked "${build_std[@]}" \
+    --manifest-path "$firmware_manifest" --target "$target"
+  debian_cargo clippy --release --locked "${build_std[@]}" --manifest-path "$firmware_manifest" \
+    --target "$target" -- -D warnings
+  log="target/firmware/qemu-$machine.txt"
+  status=0
+  timeout 600 qemu-system-arm -M "$machine" -nographic -monitor none -serial none \
+    -semihosting-config enable=on,target=native -icount shift=0,align=off,sleep=off \
+    -kernel "target/firmware/$target/release/camsim-firmware" >"$log" || status=$?
+  if [ "$status" -ne 0 ]; then
+    echo "error: the firmware on $machine ($core) exited with status $status; its output:" >&2
+    cat "$log" >&2
+    exit 1
+  fi
+  if ! diff <(grep '^case ' "$log") "$host_checksums" >&2; then
+    echo "error: on $machine ($core) the firmware's checksums above differ from the host's" >&2
+    exit 1
+  fi
+  echo "$machine ($core): all $(grep -c '^case ' "$log") checksums equal the host's (${sizes[*]})"
 done
