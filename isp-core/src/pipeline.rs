@@ -1122,7 +1122,8 @@ impl FloatPipeline<'_> {
     }
 }
 
-/// The fixed-point firmware path: parameters quantised once, tables built once (32 KiB).
+/// The fixed-point firmware path: parameters quantised once; the sRGB encoding reads `static`
+/// tables (computed when the library is built), the tone curve a 12 KiB table built here.
 #[derive(Debug, Clone)]
 pub struct FixedPipeline<'a> {
     dpc: DpcConfig<'a>,

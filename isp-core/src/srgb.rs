@@ -10,6 +10,15 @@ use crate::math;
 pub(crate) mod avx2;
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod avx512;
+// The generators run in the build script and the tests; the library reads their statics.
+#[cfg_attr(not(test), allow(dead_code))]
+pub(crate) mod tables;
+
+pub use tables::LINEAR_THRESHOLD;
+use tables::{HIGH_ENTRIES, LOW_ENTRIES, RUNS, SEARCH8_TABLES};
+
+// The encoding's tables as `static` arrays, from the build script (tables.rs's functions).
+include!(concat!(env!("OUT_DIR"), "/encode_tables.rs"));
 
 /// One plane of a row in halves (its `even` even columns, then its `odd` odd columns) as
 /// chunks of `N` samples: the first `odd` even columns, then the odd columns, whole chunks
@@ -65,8 +74,6 @@ fn encode_rest<T: Copy>(
     }
 }
 
-/// Linear value above which the power segment applies.
-pub const LINEAR_THRESHOLD: f32 = 0.003_130_8;
 /// Encoded value above which the power segment applies.
 pub const ENCODED_THRESHOLD: f32 = 0.040_45;
 
@@ -103,18 +110,14 @@ pub fn decode(encoded: f32) -> f32 {
     }
 }
 
-/// Entries of [`EncodeLut`]'s direct table for the darkest inputs.
-const LOW_ENTRIES: usize = 1024;
-/// Entries of [`EncodeLut`]'s interpolated table: one every 16 input steps, plus the end.
-const HIGH_ENTRIES: usize = 65536 / 16 + 1;
-
 /// The sRGB encoding in fixed point: linear `u16` (65535 is 1.0) to 8- or 16-bit sRGB.
 ///
-/// Two tables, filled once from the exact curve ([`encode`]) and stored with 8 fractional
-/// bits: inputs below 1024 (where the curve bends hardest) read a direct table, the rest
+/// Two tables, computed from the exact curve ([`encode`], in `f64`) when the library is built
+/// (so a pipeline starts without evaluating a power: `static` data, in flash on firmware), with
+/// 8 fractional bits: inputs below 1024 (where the curve bends hardest) read a direct table, the rest
 /// interpolate linearly between entries 16 input steps apart. The interpolated value is within
 /// 0.5 output LSB of the exact curve at either depth (a test sweeps every input), and the
-/// output is that value rounded. Size: 5121 `u32`, 20 KiB.
+/// output is that value rounded. Size: 5121 `u32`, 20 KiB, shared by every pipeline.
 ///
 /// For 8-bit output [`EncodeLut::lookup`] reads one more table of 4096 `u16` entries instead:
 /// per run of 16 inputs, the code at its start and where in the run it steps up by one (the
@@ -125,27 +128,21 @@ const HIGH_ENTRIES: usize = 65536 / 16 + 1;
 /// EPYC, whose AVX2 has no faster way). Beside it, 384 `u16` code thresholds in
 /// the order a binary search reads them, for the AVX-512 encoder, which picks them per lane
 /// from registers instead of loading per sample.
-#[derive(Clone)]
+#[derive(Clone, Copy)]
 pub struct EncodeLut {
-    low: [u32; LOW_ENTRIES],
-    high: [u32; HIGH_ENTRIES],
+    low: &'static [u32; LOW_ENTRIES],
+    high: &'static [u32; HIGH_ENTRIES],
     /// 8-bit output: for run `i` (inputs `16 i..16 i + 16`), `256 code + 256 - step - 16 i`
     /// (wrapping), where `code` is the code of input `16 i` and `step` the offset in the run
-    /// from which the code is one more (16: none). See [`EncodeLut::lookup8`].
-    runs8: [u16; RUNS],
+    /// from which the code is one more (16: none). See [`EncodeLut::lookup8`]. (A 16-bit
+    /// table carries the 8-bit one's, unused.)
+    runs8: &'static [u16; RUNS],
     /// 8-bit output: the code thresholds (the smallest input of each code) in the order a
-    /// binary search over the codes reads them, for the vectorised encoding (see
-    /// [`EncodeLut::search8_tables`]).
+    /// binary search over the codes reads them, for the vectorised encoding.
     #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
-    search8: [[u16; 32]; SEARCH8_TABLES],
+    search8: &'static [[u16; 32]; SEARCH8_TABLES],
     max: u32,
 }
-
-/// Tables of 32 thresholds for the eight steps of a binary search over the 8-bit codes.
-const SEARCH8_TABLES: usize = 12;
-
-/// Runs of 16 inputs in the 16-bit linear range.
-const RUNS: usize = 65536 / 16;
 
 impl core::fmt::Debug for EncodeLut {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
@@ -166,75 +163,17 @@ impl EncodeLut {
                 })
             }
         };
-        let exact = |v: f64| -> u32 {
-            // f64 for the table so its entries carry no f32 error of their own.
-            let x = (v / 65535.0).clamp(0.0, 1.0);
-            let e = if x <= LINEAR_THRESHOLD as f64 {
-                12.92 * x
-            } else {
-                1.055 * libm::pow(x, 1.0 / 2.4) - 0.055
-            };
-            (e.clamp(0.0, 1.0) * max as f64 * 256.0 + 0.5) as u32
+        let (low, high) = match max {
+            255 => (&ENCODE8_LOW, &ENCODE8_HIGH),
+            _ => (&ENCODE16_LOW, &ENCODE16_HIGH),
         };
-        let mut low = [0u32; LOW_ENTRIES];
-        for (i, v) in low.iter_mut().enumerate() {
-            *v = exact(i as f64);
-        }
-        let mut high = [0u32; HIGH_ENTRIES];
-        for (i, v) in high.iter_mut().enumerate() {
-            *v = exact((16 * i) as f64);
-        }
-        let mut lut = Self {
+        Ok(Self {
             low,
             high,
-            runs8: [0; RUNS],
-            search8: [[u16::MAX; 32]; SEARCH8_TABLES],
+            runs8: &ENCODE8_RUNS,
+            search8: &ENCODE8_SEARCH,
             max,
-        };
-        if max == 255 {
-            for run in 0..RUNS {
-                let first = (16 * run) as u16;
-                let base = lut.interpolated(first);
-                let step = (1..16u16)
-                    .find(|i| lut.interpolated(first + i) > base)
-                    .unwrap_or(16);
-                // The code and its step in the high and low byte; the run's first input
-                // taken off, so the input itself can be added (see `lookup8`).
-                lut.runs8[run] = ((base as u16) << 8 | (256 - step)).wrapping_sub(first);
-            }
-            lut.search8 = lut.search8_tables();
-        }
-        Ok(lut)
-    }
-
-    /// The thresholds of an 8-bit table's codes, arranged for a binary search: the search's
-    /// step `s` (from 7 down to 0) holds a code that is a multiple of 2^(s+1) and asks
-    /// whether the input reaches the threshold of `code + 2^s`, so its candidates are those
-    /// thresholds indexed by `code >> (s + 1)`: one for step 7 and 128 for step 0. Steps 7
-    /// to 2 take a table each, step 1 two, step 0 four. Threshold `k` is the smallest input
-    /// whose [`EncodeLut::lookup8`] code is at least `k`; the codes never fall as the input
-    /// rises, so the count of thresholds at or below an input is its code.
-    fn search8_tables(&self) -> [[u16; 32]; SEARCH8_TABLES] {
-        let mut threshold = [u16::MAX; 256];
-        threshold[0] = 0;
-        let mut next = 1;
-        for linear in 0..=u16::MAX {
-            let code = self.lookup8(linear) as usize;
-            while next <= code.min(255) {
-                threshold[next] = linear;
-                next += 1;
-            }
-        }
-        let mut tables = [[u16::MAX; 32]; SEARCH8_TABLES];
-        let mut first_table = 0;
-        for step in (0..8).rev() {
-            let candidates = 128 >> step;
-            for j in 0..candidates {
-                tables[first_table + j / 32][j % 32] = threshold[(j << (step + 1)) + (1 << step)];
-            }
-            first_table += candidates.div_ceil(32);
-        }
-        tables
+        })
     }
 
     /// Largest output value (255 or 65535).
@@ -422,7 +361,34 @@ impl EncodeThresholds8 {
 
 #[cfg(test)]
 mod tests {
-    use super::EncodeLut;
+    use super::{tables, EncodeLut};
+
+    /// The build script's static tables are the curve's: every entry evaluated again here.
+    #[test]
+    fn static_tables_are_the_curves() {
+        for (bits, max) in [(8, 255), (16, 65535)] {
+            let lut = EncodeLut::new(bits).unwrap();
+            assert_eq!(*lut.low, tables::low(max), "{bits}-bit direct table");
+            assert_eq!(
+                *lut.high,
+                tables::high(max),
+                "{bits}-bit interpolated table"
+            );
+        }
+        let (low, high) = (tables::low(255), tables::high(255));
+        let runs8 = tables::runs8(&low, &high);
+        let lut = EncodeLut::new(8).unwrap();
+        assert_eq!(*lut.runs8, runs8);
+        assert_eq!(*lut.search8, tables::search8(&runs8));
+        // The 8-bit codes from the runs are the interpolated tables' rounded values.
+        for v in 0..=u16::MAX {
+            assert_eq!(
+                lut.lookup8(v),
+                tables::interpolated(&low, &high, 255, v),
+                "{v}"
+            );
+        }
+    }
 
     /// The branch-free 16-bit lookup the planar sharpening stage uses is the table's own
     /// lookup at every input.
