@@ -98,3 +98,11 @@ for board in "${boards[@]}"; do
   fi
   echo "$machine ($core): all $(grep -c '^case ' "$log") checksums equal the host's (${sizes[*]})"
 done
+
+# Instruction budgets: instructions per pixel on each board (the slope between the two frame
+# sizes) and start-up, beside the host's ns per pixel for the same code; the committed copy
+# is docs/firmware (python3 scripts/firmware-budget.py --out docs/firmware after this script).
+cargo run --release --locked --quiet -p firmware-cases --example host-checksums -- --time \
+  >target/firmware/host-times.txt
+python3 scripts/firmware-budget.py --logs target/firmware --host target/firmware/host-times.txt \
+  --out target/firmware

@@ -112,9 +112,16 @@ pub struct Stages {
     pub dynamic_defects: bool,
     /// Highlight recovery with a knee at 0.9.
     pub highlights: bool,
-    /// The camera's stages: the static defect map, lens shading, noise reduction (raw and
-    /// chroma) and the vivid tone.
-    pub camera: bool,
+    /// The static defect map ([`STATIC_DEFECTS`]).
+    pub static_defects: bool,
+    /// Lens shading ([`LSC_GAINS`]).
+    pub lsc: bool,
+    /// Raw noise reduction at strength 1 with [`noise_profile`].
+    pub denoise: bool,
+    /// Chroma noise reduction at strength 1.
+    pub chroma_denoise: bool,
+    /// The vivid look (saturation 1.3, contrast 1.15).
+    pub tone: bool,
     /// Sharpening, amount 0.5.
     pub sharpen: bool,
     /// Barrel distortion corrected (k1 = -0.15).
@@ -147,14 +154,24 @@ pub enum Case {
 const PLAIN: Stages = Stages {
     dynamic_defects: false,
     highlights: false,
-    camera: false,
+    static_defects: false,
+    lsc: false,
+    denoise: false,
+    chroma_denoise: false,
+    tone: false,
     sharpen: false,
     distortion: false,
 };
+/// The camera's configuration: every stage the demo camera runs
+/// (`docs/bench/demo-camera.toml`), as `camsim demo` develops.
 const CAMERA: Stages = Stages {
     dynamic_defects: true,
     highlights: true,
-    camera: true,
+    static_defects: true,
+    lsc: true,
+    denoise: true,
+    chroma_denoise: true,
+    tone: true,
     ..PLAIN
 };
 
@@ -169,7 +186,7 @@ const fn fixed(name: &'static str, method: Method, stages: Stages) -> Case {
 }
 
 /// Every case, in the order the firmware runs them.
-pub const CASES: [Case; 16] = [
+pub const CASES: [Case; 21] = [
     fixed("fixed-nearest", Method::Nearest, PLAIN),
     fixed("fixed-bilinear", Method::Bilinear, PLAIN),
     fixed("fixed-mhc", Method::Mhc, PLAIN),
@@ -180,6 +197,40 @@ pub const CASES: [Case; 16] = [
         Stages {
             dynamic_defects: true,
             highlights: true,
+            ..PLAIN
+        },
+    ),
+    // One stage at a time on MHC, for each stage's cost in the camera's configuration.
+    fixed(
+        "fixed-mhc+static-defects",
+        Method::Mhc,
+        Stages {
+            static_defects: true,
+            ..PLAIN
+        },
+    ),
+    fixed("fixed-mhc+lsc", Method::Mhc, Stages { lsc: true, ..PLAIN }),
+    fixed(
+        "fixed-mhc+denoise",
+        Method::Mhc,
+        Stages {
+            denoise: true,
+            ..PLAIN
+        },
+    ),
+    fixed(
+        "fixed-mhc+chroma-denoise",
+        Method::Mhc,
+        Stages {
+            chroma_denoise: true,
+            ..PLAIN
+        },
+    ),
+    fixed(
+        "fixed-mhc+tone",
+        Method::Mhc,
+        Stages {
+            tone: true,
             ..PLAIN
         },
     ),
@@ -259,7 +310,6 @@ pub fn config(
     width: usize,
     height: usize,
 ) -> Result<IspConfig<'static>, CaseError> {
-    let camera = stages.camera;
     let distortion = match stages.distortion {
         true => {
             let (w, h) = (width as f64, height as f64);
@@ -276,27 +326,31 @@ pub fn config(
     };
     let config = IspConfig {
         dpc: DpcConfig {
-            static_defects: if camera { &STATIC_DEFECTS } else { &[] },
+            static_defects: if stages.static_defects {
+                &STATIC_DEFECTS
+            } else {
+                &[]
+            },
             dynamic_threshold: stages.dynamic_defects.then_some(64),
         },
-        lsc: match camera {
+        lsc: match stages.lsc {
             true => Some(LensShading::new(LSC_GRID.0, LSC_GRID.1, &LSC_GAINS)?),
             false => None,
         },
         wb_gains: WB_GAINS,
         demosaic: method,
         distortion,
-        denoise: if camera { 1.0 } else { 0.0 },
+        denoise: if stages.denoise { 1.0 } else { 0.0 },
         noise: Some(noise_profile()?),
         highlight_knee: if stages.highlights { 0.9 } else { 1.0 },
         ccm: CCM,
-        tone: if camera {
+        tone: if stages.tone {
             Look::Vivid.tone()
         } else {
             Look::Neutral.tone()
         },
         sharpen: if stages.sharpen { 0.5 } else { 0.0 },
-        chroma_denoise: if camera { 1.0 } else { 0.0 },
+        chroma_denoise: if stages.chroma_denoise { 1.0 } else { 0.0 },
         ..IspConfig::default()
     };
     config.validate()?;
