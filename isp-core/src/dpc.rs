@@ -46,6 +46,8 @@ use crate::IspError;
 
 /// A pixel position. Ordered by row, then column.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+// C layout: the C API (isp-ffi) takes a caller's array of `{ uint16_t y, x; }` as is.
+#[repr(C)]
 pub struct Defect {
     /// Row (first, so the derived order is row-major).
     pub y: u16,
