@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # The firmware cores on real cores:
-# 1. optics-core, isp-core and firmware-cases build for thumbv7em-none-eabihf (Cortex-M4F/M7F),
+# 1. optics-core, isp-core, isp-ffi (the C API) and firmware-cases build for thumbv7em-none-eabihf (Cortex-M4F/M7F),
 #    thumbv8m.main-none-eabihf (Cortex-M33) and aarch64-unknown-none, each with `-D warnings`
 #    and clippy `-D warnings`;
-# 2. the firmware example (firmware/cortex-m) runs every firmware case under QEMU on mps2-an386
-#    (Cortex-M4F) and mps2-an505 (Cortex-M33), and each checksum equals the host's for the same
+# 2. the firmware example (firmware/cortex-m) runs every firmware case (the C API's among them)
+#    under QEMU on mps2-an386 (Cortex-M4F) and mps2-an505 (Cortex-M33), and each checksum equals
+#    the host's for the same
 #    frame and configuration (firmware-cases' host-checksums example; the workspace test
 #    tests/tests/firmware_cases.rs ties those to `camsim isp`'s development).
 # The runs' SysTick counts land in target/firmware/qemu-*.txt for scripts/firmware-budget.py.
@@ -61,11 +62,12 @@ debian_cargo() {
 }
 echo "with $(/usr/bin/rustc --version) and $(qemu-system-arm --version | head -1)"
 for target in "${targets[@]}"; do
+  # isp-ffi without its `std` feature: the C API as a Rust firmware links it.
   RUSTFLAGS="-D warnings" debian_cargo build --release --locked -Z build-std=core \
-    --target "$target" -p optics-core -p isp-core -p firmware-cases
+    --target "$target" --no-default-features -p optics-core -p isp-core -p isp-ffi -p firmware-cases
   debian_cargo clippy --release --locked -Z build-std=core --target "$target" \
-    -p optics-core -p isp-core -p firmware-cases -- -D warnings
-  echo "$target: optics-core, isp-core and firmware-cases build and pass clippy without a warning"
+    --no-default-features -p optics-core -p isp-core -p isp-ffi -p firmware-cases -- -D warnings
+  echo "$target: optics-core, isp-core, isp-ffi and firmware-cases build and pass clippy without a warning"
 done
 
 # The firmware binary: compiler_builtins from source too, with its memcpy/memset (no libc).

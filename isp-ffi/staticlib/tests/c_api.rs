@@ -2,7 +2,7 @@
 //! `examples/develop.c`, compiled by the system's C compiler against the static library,
 //! develops the firmware cases' test frame byte for byte as the Rust pipeline does.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::Command;
 
 use firmware_cases::{fill_mosaic, BIT_DEPTH, BLACK_LEVEL, PATTERN, WHITE_LEVEL};
@@ -13,8 +13,9 @@ use isp_core::noise::NoiseProfile;
 use isp_core::pipeline::{FixedPipeline, IspConfig};
 use isp_core::tone::{Tone, ToneCurve};
 
+/// isp-ffi, which holds the API's source, the header and the C example.
 fn crate_dir() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
 #[test]
@@ -35,18 +36,29 @@ fn committed_header_is_current() {
     let committed = std::fs::read(&header).unwrap_or_default();
     assert!(
         committed == generated,
-        "include/camsim_isp.h is stale: run CAMSIM_BLESS=1 cargo test -p isp-ffi --test c_api \
+        "include/camsim_isp.h is stale: run CAMSIM_BLESS=1 cargo test -p camsim-isp --test c_api \
          and commit it"
     );
 }
 
-/// The static library cargo built beside this test (target/<profile>/libisp_ffi.a).
+/// The static library cargo built for this test: `cargo test` leaves it in the deps
+/// directory beside the test (as `libcamsim_isp-<hash>.a`; `cargo build` would also copy it to
+/// target/<profile>/libcamsim_isp.a), the newest if several builds left one.
 fn static_library() -> PathBuf {
     let exe = std::env::current_exe().unwrap();
-    let profile_dir = exe.parent().and_then(Path::parent).unwrap();
-    let lib = profile_dir.join("libisp_ffi.a");
-    assert!(lib.exists(), "{} was not built", lib.display());
-    lib
+    let deps = exe.parent().unwrap();
+    let newest = std::fs::read_dir(deps)
+        .unwrap()
+        .filter_map(Result::ok)
+        .filter(|e| {
+            let name = e.file_name().to_string_lossy().into_owned();
+            name.starts_with("libcamsim_isp-") && name.ends_with(".a")
+        })
+        .max_by_key(|e| e.metadata().and_then(|m| m.modified()).ok());
+    match newest {
+        Some(entry) => entry.path(),
+        None => panic!("cargo built no libcamsim_isp-*.a in {}", deps.display()),
+    }
 }
 
 #[test]
@@ -144,7 +156,7 @@ fn c_example_develops_as_the_rust_pipeline() {
 
 #[test]
 fn refusals_are_status_codes_with_the_command_lines_message() {
-    use isp_ffi::*;
+    use camsim_isp::*;
     let mut config = std::mem::MaybeUninit::<CamsimIspConfig>::uninit();
     // SAFETY: a writable config.
     let mut config = unsafe {
