@@ -13,7 +13,7 @@ use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::{debug, hio};
-use firmware_cases::{report, Buffers};
+use firmware_cases::{report, run_case, Buffers, CASES};
 use panic_halt as _;
 
 /// The largest frame the firmware runs.
@@ -25,6 +25,9 @@ const SCRATCH_U16: usize = 44 * 1024;
 const SCRATCH_F32: usize = 19 * 1024;
 /// The frames each case runs on: two sizes, so the host can take the per-pixel slope.
 const SIZES: [(usize, usize); 2] = [(64, 48), (MAX_W, MAX_H)];
+/// Set at build time (`CAMSIM_FIRMWARE_ONLY=<case>`, scripts/firmware-profile.sh), the
+/// firmware runs that case alone, once, at 64x48: a short trace for QEMU's instruction log.
+const ONLY: Option<&str> = option_env!("CAMSIM_FIRMWARE_ONLY");
 /// Iterations of the calibration loop (two instructions each).
 const CALIBRATION_LOOPS: u32 = 1_000_000;
 
@@ -111,6 +114,19 @@ fn run() -> Result<bool, fmt::Error> {
         scratch: &mut scratch,
         scratch_f32: &mut scratch_f32,
     };
+    if let Some(only) = ONLY {
+        let Some(case) = CASES.iter().find(|c| c.name() == only) else {
+            writeln!(out, "error {only} is not a case")?;
+            return Ok(false);
+        };
+        // Ticks mean nothing under the profiler's QEMU (no -icount): the checksum only.
+        let outcome = run_case(case, 64, 48, &mut buffers, &mut ticks);
+        match outcome {
+            Ok(o) => writeln!(out, "profiled {only} 64x48, checksum {:08x}", o.checksum)?,
+            Err(e) => writeln!(out, "error {only} {e}")?,
+        }
+        return Ok(outcome.is_ok());
+    }
     let mut all_ran = true;
     for (w, h) in SIZES {
         all_ran &= report(&mut out, w, h, &mut buffers, &mut ticks, true)?;

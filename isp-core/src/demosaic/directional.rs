@@ -750,7 +750,12 @@ pub(crate) const LANES_AVX512: usize = 16;
 /// Sites per block of [`Blocks`] in the other builds: one AVX2 vector of `i32`. Sixteen, two
 /// AVX2 vectors per value, spilled more than it gained on AVX2's sixteen registers: the fixed
 /// pipeline's directional frame took 21 ns per pixel against 17 on a Zen 3 EPYC.
+#[cfg(not(target_arch = "arm"))]
 pub(crate) const LANES: usize = 8;
+/// Sites per block on 32-bit ARM (Cortex-M), which has no vector registers: blocks of eight
+/// were arrays on the stack, gathered tap by tap with `memcpy`.
+#[cfg(target_arch = "arm")]
+pub(crate) const LANES: usize = 1;
 
 /// A block of `L` sites of a span: whole block `b` (sites `b * L..`), or the last `L` sites
 /// where the span is not a whole number of blocks (see [`for_each_block`]).
