@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Instruction budgets of the firmware cases on the emulated Cortex-M4F and Cortex-M33.
+"""Instruction budgets of the firmware cases on the emulated Cortex-M4F, Cortex-M33 and Cortex-A53.
 
 Reads the firmware's output under QEMU (target/firmware/qemu-<machine>.txt, written by
 scripts/firmware-check.sh) and the host's times (host-checksums --time), and writes
@@ -24,7 +24,7 @@ import platform
 import re
 import sys
 
-MACHINES = [("mps2-an386", "Cortex-M4F"), ("mps2-an505", "Cortex-M33")]
+MACHINES = [("mps2-an386", "Cortex-M4F"), ("mps2-an505", "Cortex-M33"), ("virt", "Cortex-A53")]
 # Issue 44's targets on the M4 (instructions per pixel; fixed path, 8-bit output).
 TARGETS_PER_PIXEL = {
     "fixed-bilinear": 60,
@@ -101,7 +101,7 @@ def svg_chart(rows, machines):
     """Horizontal bars on a log axis: instructions per pixel per board, and the host's ns per
     pixel beside them (in its own panel)."""
     bar, gap, left, panel = 7, 6, 250, 330
-    colours = ["#3b6ea8", "#d08a2c"]
+    colours = ["#3b6ea8", "#d08a2c", "#4f9a4f"]
     height = 80 + len(rows) * (len(machines) * bar + gap)
     width = left + 2 * panel + 40
     out = [
@@ -181,9 +181,10 @@ def main():
 
     m4 = result["machines"]["mps2-an386"]["cases"]
     m33 = result["machines"]["mps2-an505"]["cases"]
+    a53 = result["machines"]["virt"]["cases"]
     lines = [
-        "| case | M4 instructions per pixel | M33 instructions per pixel | M4 start-up instructions | host ns per pixel | M4 target per pixel | M4 start-up target |",
-        "|---|---|---|---|---|---|---|",
+        "| case | M4 instructions per pixel | M33 instructions per pixel | A53 instructions per pixel | M4 start-up instructions | host ns per pixel | M4 target per pixel | M4 start-up target |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     rows = []
     misses = []
@@ -203,12 +204,14 @@ def main():
             if startup > TARGET_STARTUP:
                 misses.append(f"{name}: start-up {startup:,} instructions > 1,000,000")
         host = per_pixel.get(name)
+        host_cell = f"{host:.2f}" if host is not None else ""
         lines.append(
-            f"| {name} | {per_px:,.0f} | {m33[name]['instructions_per_pixel']:,.0f} | {startup:,} | "
-            f"{host:.2f} | {target_cell} | {startup_cell} |" if host is not None else
-            f"| {name} | {per_px:,.0f} | {m33[name]['instructions_per_pixel']:,.0f} | {startup:,} | | {target_cell} | {startup_cell} |"
+            f"| {name} | {per_px:,.0f} | {m33[name]['instructions_per_pixel']:,.0f} | "
+            f"{a53[name]['instructions_per_pixel']:,.0f} | {startup:,} | {host_cell} | {target_cell} | "
+            f"{startup_cell} |"
         )
-        rows.append({"name": name, "mps2-an386": per_px, "mps2-an505": m33[name]["instructions_per_pixel"], "x86": host})
+        rows.append({"name": name, "mps2-an386": per_px, "mps2-an505": m33[name]["instructions_per_pixel"],
+                     "virt": a53[name]["instructions_per_pixel"], "x86": host})
     result["missed"] = misses
 
     os.makedirs(args.out, exist_ok=True)
@@ -220,8 +223,8 @@ def main():
             lines.append("")
             lines.append(
                 f"{name}: {m4[name]['instructions_per_run']:,} instructions on the M4, "
-                f"{m33[name]['instructions_per_run']:,} on the M33 for the whole grid of lenses and "
-                "subjects (firmware_cases::optics_checksum)."
+                f"{m33[name]['instructions_per_run']:,} on the M33, {a53[name]['instructions_per_run']:,} "
+                "on the A53 for the whole grid of lenses and subjects (firmware_cases::optics_checksum)."
             )
     table = "\n".join(lines) + "\n"
     with open(os.path.join(args.out, "budget.md"), "w") as f:

@@ -3,9 +3,9 @@
 # 1. optics-core, isp-core, isp-ffi (the C API) and firmware-cases build for thumbv7em-none-eabihf (Cortex-M4F/M7F),
 #    thumbv8m.main-none-eabihf (Cortex-M33) and aarch64-unknown-none, each with `-D warnings`
 #    and clippy `-D warnings`;
-# 2. the firmware example (firmware/cortex-m) runs every firmware case (the C API's among them)
-#    under QEMU on mps2-an386 (Cortex-M4F) and mps2-an505 (Cortex-M33), and each checksum equals
-#    the host's for the same
+# 2. the firmware examples (firmware/cortex-m, firmware/aarch64) run every firmware case (the C
+#    API's among them) under QEMU on mps2-an386 (Cortex-M4F), mps2-an505 (Cortex-M33) and virt
+#    (Cortex-A53), and each checksum equals the host's for the same
 #    frame and configuration (firmware-cases' host-checksums example; the workspace test
 #    tests/tests/firmware_cases.rs ties those to `camsim isp`'s development).
 # The runs' SysTick counts land in target/firmware/qemu-*.txt for scripts/firmware-budget.py.
@@ -22,8 +22,12 @@ cd "$(dirname "$0")/.."
 
 targets=(thumbv7em-none-eabihf thumbv8m.main-none-eabihf aarch64-unknown-none)
 packages=(rustc-web cargo-web rust-web-src rust-web-clippy rust-web-llvm lld-22 qemu-system-arm)
-# Emulated boards: QEMU machine, the core it models, the firmware's target.
-boards=("mps2-an386 Cortex-M4F thumbv7em-none-eabihf" "mps2-an505 Cortex-M33 thumbv8m.main-none-eabihf")
+# Emulated boards: QEMU, its machine, the core it models, the firmware's target and crate.
+boards=(
+  "qemu-system-arm mps2-an386 Cortex-M4F thumbv7em-none-eabihf firmware/cortex-m"
+  "qemu-system-arm mps2-an505 Cortex-M33 thumbv8m.main-none-eabihf firmware/cortex-m"
+  "qemu-system-aarch64 virt Cortex-A53 aarch64-unknown-none firmware/aarch64"
+)
 sizes=(64x48 128x96)
 
 have_toolchain() {
@@ -70,25 +74,28 @@ for target in "${targets[@]}"; do
   echo "$target: optics-core, isp-core, isp-ffi and firmware-cases build and pass clippy without a warning"
 done
 
-# The firmware binary: compiler_builtins from source too, with its memcpy/memset (no libc).
-firmware_manifest=firmware/cortex-m/Cargo.toml
-cargo fmt --manifest-path "$firmware_manifest" -- --check
+# The firmware binaries: compiler_builtins from source too, with its memcpy/memset (no libc).
 build_std=(-Z build-std=core,compiler_builtins -Z build-std-features=compiler-builtins-mem)
 host_checksums=target/firmware/host-checksums.txt
 mkdir -p target/firmware
 cargo run --release --locked --quiet -p firmware-cases --example host-checksums -- "${sizes[@]}" \
   >"$host_checksums"
 for board in "${boards[@]}"; do
-  read -r machine core target <<<"$board"
+  read -r qemu machine core target crate <<<"$board"
+  manifest="$crate/Cargo.toml"
+  cargo fmt --manifest-path "$manifest" -- --check
   RUSTFLAGS="-D warnings" debian_cargo build --release --locked "${build_std[@]}" \
-    --manifest-path "$firmware_manifest" --target "$target"
-  debian_cargo clippy --release --locked "${build_std[@]}" --manifest-path "$firmware_manifest" \
+    --manifest-path "$manifest" --target "$target"
+  debian_cargo clippy --release --locked "${build_std[@]}" --manifest-path "$manifest" \
     --target "$target" -- -D warnings
+  binary="target/firmware/$target/release/$(basename "$(sed -n 's/^name = "\(.*\)"/\1/p' "$manifest" | head -1)")"
+  machine_args=(-M "$machine")
+  [ "$machine" = virt ] && machine_args+=(-cpu cortex-a53)
   log="target/firmware/qemu-$machine.txt"
   status=0
-  timeout 600 qemu-system-arm -M "$machine" -nographic -monitor none -serial none \
+  timeout 600 "$qemu" "${machine_args[@]}" -nographic -monitor none -serial none \
     -semihosting-config enable=on,target=native -icount shift=0,align=off,sleep=off \
-    -kernel "target/firmware/$target/release/camsim-firmware" >"$log" || status=$?
+    -kernel "$binary" >"$log" || status=$?
   if [ "$status" -ne 0 ]; then
     echo "error: the firmware on $machine ($core) exited with status $status; its output:" >&2
     cat "$log" >&2
