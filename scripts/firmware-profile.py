@@ -22,7 +22,7 @@ import subprocess
 import sys
 
 # Routines charged to their callers too.
-LIBRARY = re.compile(r"memcpy|memset|memclr|memmove|__aeabi|compiler_builtins|u64_div_rem|libm::")
+LIBRARY = re.compile(r"^__|memcpy|memset|memclr|memmove|compiler_builtins|libm::")
 BOARDS = {"mps2-an386": "thumbv7em-none-eabihf", "mps2-an505": "thumbv8m.main-none-eabihf"}
 
 

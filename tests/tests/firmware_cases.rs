@@ -107,3 +107,19 @@ fn the_test_frame_exercises_the_stages() {
     fill_mosaic(&mut again, w, h).unwrap();
     assert_eq!(mosaic, again);
 }
+
+#[test]
+fn firmware_buffers_hold_every_case_at_every_size() {
+    for (w, h) in firmware_cases::FIRMWARE_SIZES {
+        assert!(w * h <= firmware_cases::FIRMWARE_MAX_PIXELS);
+        let (fixed, float) = scratch_needed(w, h).unwrap();
+        assert!(
+            fixed <= firmware_cases::FIRMWARE_SCRATCH_U16,
+            "{w}x{h}: {fixed} u16"
+        );
+        assert!(
+            float <= firmware_cases::FIRMWARE_SCRATCH_F32,
+            "{w}x{h}: {float} f32"
+        );
+    }
+}

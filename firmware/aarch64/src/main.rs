@@ -6,17 +6,13 @@
 #![no_std]
 #![no_main]
 
-use core::fmt::{self, Write as _};
+use core::fmt;
 
-use firmware_cases::{report, Buffers};
+use firmware_cases::{
+    firmware_run, Buffers, FIRMWARE_MAX_PIXELS, FIRMWARE_SCRATCH_F32, FIRMWARE_SCRATCH_U16,
+};
 
-const MAX_W: usize = 128;
-const MAX_H: usize = 96;
-/// Scratch for the largest frame (`firmware_cases::scratch_needed(128, 96)`, checked by
-/// `run_case`).
-const SCRATCH_U16: usize = 44 * 1024;
-const SCRATCH_F32: usize = 19 * 1024;
-const SIZES: [(usize, usize); 2] = [(64, 48), (MAX_W, MAX_H)];
+/// Iterations of the calibration loop (two instructions each).
 const CALIBRATION_LOOPS: u64 = 1_000_000;
 
 // Entered at EL1 with the MMU off: turn on the FP/SIMD unit (CPACR_EL1.FPEN), set the stack,
@@ -121,11 +117,11 @@ extern "C" fn firmware_main() -> ! {
 
 fn run() -> Result<bool, fmt::Error> {
     let mut out = HostOut::open()?;
-    let mut mosaic = [0u16; MAX_W * MAX_H];
-    let mut out8 = [0u8; 3 * MAX_W * MAX_H];
-    let mut out16 = [0u16; 3 * MAX_W * MAX_H];
-    let mut scratch = [0u16; SCRATCH_U16];
-    let mut scratch_f32 = [0f32; SCRATCH_F32];
+    let mut mosaic = [0u16; FIRMWARE_MAX_PIXELS];
+    let mut out8 = [0u8; 3 * FIRMWARE_MAX_PIXELS];
+    let mut out16 = [0u16; 3 * FIRMWARE_MAX_PIXELS];
+    let mut scratch = [0u16; FIRMWARE_SCRATCH_U16];
+    let mut scratch_f32 = [0f32; FIRMWARE_SCRATCH_F32];
     let mut buffers = Buffers {
         mosaic: &mut mosaic,
         out8: &mut out8,
@@ -133,18 +129,10 @@ fn run() -> Result<bool, fmt::Error> {
         scratch: &mut scratch,
         scratch_f32: &mut scratch_f32,
     };
-    let mut all_ran = true;
-    for (w, h) in SIZES {
-        all_ran &= report(&mut out, w, h, &mut buffers, &mut ticks, true)?;
-    }
-    let t0 = ticks();
-    spin(CALIBRATION_LOOPS);
-    let t1 = ticks();
-    writeln!(
-        out,
-        "calibration {} instructions {} ticks",
-        2 * CALIBRATION_LOOPS,
-        t1 - t0
-    )?;
-    Ok(all_ran)
+    let mut calibrate = || {
+        let t0 = ticks();
+        spin(CALIBRATION_LOOPS);
+        (2 * CALIBRATION_LOOPS, ticks() - t0)
+    };
+    firmware_run(&mut out, &mut buffers, &mut ticks, None, &mut calibrate)
 }

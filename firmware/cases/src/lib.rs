@@ -832,6 +832,57 @@ pub fn scratch_needed(width: usize, height: usize) -> Result<(usize, usize), Cas
     Ok((fixed, float))
 }
 
+/// The frame sizes a firmware runs every case at: two, so the host can take each case's
+/// per-pixel slope between them.
+pub const FIRMWARE_SIZES: [(usize, usize); 2] = [(64, 48), (128, 96)];
+/// Pixels of the largest of [`FIRMWARE_SIZES`].
+pub const FIRMWARE_MAX_PIXELS: usize = 128 * 96;
+/// Fixed-path scratch elements for the largest frame: at least [`scratch_needed`]'s (a test
+/// checks; [`run_case`] refuses a short buffer anyway).
+pub const FIRMWARE_SCRATCH_U16: usize = 44 * 1024;
+/// Float-path scratch elements for the largest frame, as [`FIRMWARE_SCRATCH_U16`].
+pub const FIRMWARE_SCRATCH_F32: usize = 19 * 1024;
+
+/// A firmware's whole run, the same on every core: every case at [`FIRMWARE_SIZES`] through
+/// [`report`] with `clock`, then `calibrate` (which runs a loop of known length and returns its
+/// instructions and the clock's ticks) as a `calibration <instructions> instructions <ticks>
+/// ticks` line. With `only`, that case alone at 64x48 and its checksum (for a profile, where
+/// the clock means nothing). Returns whether every case ran.
+pub fn firmware_run(
+    sink: &mut dyn fmt::Write,
+    buffers: &mut Buffers<'_>,
+    clock: &mut dyn FnMut() -> u64,
+    only: Option<&str>,
+    calibrate: &mut dyn FnMut() -> (u64, u64),
+) -> Result<bool, fmt::Error> {
+    if let Some(only) = only {
+        let Some(case) = CASES.iter().find(|c| c.name() == only) else {
+            writeln!(sink, "error {only} is not a case")?;
+            return Ok(false);
+        };
+        return Ok(match run_case(case, 64, 48, buffers, clock) {
+            Ok(o) => {
+                writeln!(sink, "profiled {only} 64x48, checksum {:08x}", o.checksum)?;
+                true
+            }
+            Err(e) => {
+                writeln!(sink, "error {only} {e}")?;
+                false
+            }
+        });
+    }
+    let mut all_ran = true;
+    for (w, h) in FIRMWARE_SIZES {
+        all_ran &= report(sink, w, h, buffers, clock, true)?;
+    }
+    let (instructions, ticks) = calibrate();
+    writeln!(
+        sink,
+        "calibration {instructions} instructions {ticks} ticks"
+    )?;
+    Ok(all_ran)
+}
+
 /// Runs every case at `width` x `height` and writes one line per case to `sink`:
 /// `case <name> <width>x<height> <checksum in hex>`, then `ticks <name> <width>x<height>
 /// <construction> <run>` when `timed` (the clock's ticks). A case that fails writes

@@ -7,24 +7,17 @@
 #![no_std]
 #![no_main]
 
-use core::fmt::{self, Write as _};
+use core::fmt;
 use core::sync::atomic::{AtomicU32, Ordering};
 
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::{debug, hio};
-use firmware_cases::{report, run_case, Buffers, CASES};
+use firmware_cases::{
+    firmware_run, Buffers, FIRMWARE_MAX_PIXELS, FIRMWARE_SCRATCH_F32, FIRMWARE_SCRATCH_U16,
+};
 use panic_halt as _;
 
-/// The largest frame the firmware runs.
-const MAX_W: usize = 128;
-const MAX_H: usize = 96;
-/// Scratch for the largest frame (`firmware_cases::scratch_needed(128, 96)`, checked at run
-/// time by `run_case`, which refuses a short buffer).
-const SCRATCH_U16: usize = 44 * 1024;
-const SCRATCH_F32: usize = 19 * 1024;
-/// The frames each case runs on: two sizes, so the host can take the per-pixel slope.
-const SIZES: [(usize, usize); 2] = [(64, 48), (MAX_W, MAX_H)];
 /// Set at build time (`CAMSIM_FIRMWARE_ONLY=<case>`, scripts/firmware-profile.sh), the
 /// firmware runs that case alone, once, at 64x48: a short trace for QEMU's instruction log.
 const ONLY: Option<&str> = option_env!("CAMSIM_FIRMWARE_ONLY");
@@ -102,11 +95,11 @@ fn run() -> Result<bool, fmt::Error> {
     syst.enable_counter();
 
     let mut out = HostOut(hio::hstdout().map_err(|_| fmt::Error)?);
-    let mut mosaic = [0u16; MAX_W * MAX_H];
-    let mut out8 = [0u8; 3 * MAX_W * MAX_H];
-    let mut out16 = [0u16; 3 * MAX_W * MAX_H];
-    let mut scratch = [0u16; SCRATCH_U16];
-    let mut scratch_f32 = [0f32; SCRATCH_F32];
+    let mut mosaic = [0u16; FIRMWARE_MAX_PIXELS];
+    let mut out8 = [0u8; 3 * FIRMWARE_MAX_PIXELS];
+    let mut out16 = [0u16; 3 * FIRMWARE_MAX_PIXELS];
+    let mut scratch = [0u16; FIRMWARE_SCRATCH_U16];
+    let mut scratch_f32 = [0f32; FIRMWARE_SCRATCH_F32];
     let mut buffers = Buffers {
         mosaic: &mut mosaic,
         out8: &mut out8,
@@ -114,31 +107,10 @@ fn run() -> Result<bool, fmt::Error> {
         scratch: &mut scratch,
         scratch_f32: &mut scratch_f32,
     };
-    if let Some(only) = ONLY {
-        let Some(case) = CASES.iter().find(|c| c.name() == only) else {
-            writeln!(out, "error {only} is not a case")?;
-            return Ok(false);
-        };
-        // Ticks mean nothing under the profiler's QEMU (no -icount): the checksum only.
-        let outcome = run_case(case, 64, 48, &mut buffers, &mut ticks);
-        match outcome {
-            Ok(o) => writeln!(out, "profiled {only} 64x48, checksum {:08x}", o.checksum)?,
-            Err(e) => writeln!(out, "error {only} {e}")?,
-        }
-        return Ok(outcome.is_ok());
-    }
-    let mut all_ran = true;
-    for (w, h) in SIZES {
-        all_ran &= report(&mut out, w, h, &mut buffers, &mut ticks, true)?;
-    }
-    let t0 = ticks();
-    spin(CALIBRATION_LOOPS);
-    let t1 = ticks();
-    writeln!(
-        out,
-        "calibration {} instructions {} ticks",
-        2 * CALIBRATION_LOOPS,
-        t1 - t0
-    )?;
-    Ok(all_ran)
+    let mut calibrate = || {
+        let t0 = ticks();
+        spin(CALIBRATION_LOOPS);
+        (2 * u64::from(CALIBRATION_LOOPS), ticks() - t0)
+    };
+    firmware_run(&mut out, &mut buffers, &mut ticks, ONLY, &mut calibrate)
 }
