@@ -279,7 +279,12 @@ impl RawInput {
         if !is_dng {
             return Ok(Self::plain(raw_formats::image::read_mosaic(path)?));
         }
-        let dng = Dng::read(path)?;
+        Self::from_dng(Dng::read(path)?, path)
+    }
+
+    /// A decoded DNG as a frame to develop (`path` names the file in errors): what
+    /// [`RawInput::read`] does after reading, for callers that keep the file's other tags.
+    pub fn from_dng(dng: Dng, path: &Path) -> Result<Self, FormatError> {
         // An opcode this pipeline does not know, that the file does not let a reader skip.
         let required_unknown =
             dng.processing
@@ -629,27 +634,64 @@ fn frame(
     framing: &Framing,
     choice: CropChoice,
 ) -> Result<(Image, Option<String>), Error> {
+    let (data, width, height, done) = frame_samples(
+        rgb.data,
+        rgb.width,
+        rgb.height,
+        rgb.channels,
+        framing,
+        choice,
+    )?;
+    let rgb = Image {
+        width,
+        height,
+        data,
+        ..rgb
+    };
+    Ok((rgb, done))
+}
+
+/// A developed image's samples (`width` x `height`, `channels` per pixel, any sample type)
+/// framed as the file says and `choice` asks: the default crop, then turned upright. Returns
+/// the samples, their width and height, and what was done in words (`None` for nothing).
+pub fn frame_samples<T: Copy>(
+    data: Vec<T>,
+    width: usize,
+    height: usize,
+    channels: usize,
+    framing: &Framing,
+    choice: CropChoice,
+) -> Result<(Vec<T>, usize, usize, Option<String>), Error> {
     let mut done = Vec::new();
-    let rgb = match (choice, framing.default_crop) {
-        (CropChoice::Default, Some(crop))
-            if (crop.width, crop.height) != (rgb.width, rgb.height) =>
-        {
+    let (data, width, height) = match (choice, framing.default_crop) {
+        (CropChoice::Default, Some(crop)) if (crop.width, crop.height) != (width, height) => {
             done.push(format!(
                 "the file's default crop, {}x{} at ({}, {}) (--crop active keeps the whole {}x{})",
-                crop.width, crop.height, crop.left, crop.top, rgb.width, rgb.height
+                crop.width, crop.height, crop.left, crop.top, width, height
             ));
-            rgb.cropped(crop)?
+            let data = raw_formats::framing::crop_samples(&data, width, channels, crop)?;
+            (data, crop.width, crop.height)
         }
-        _ => rgb,
+        _ => (data, width, height),
     };
-    let rgb = match framing.orientation {
-        Orientation::Normal => rgb,
+    let (data, width, height) = match framing.orientation {
+        Orientation::Normal => (data, width, height),
         o => {
             done.push(format!("turned upright (Orientation {})", o.to_tiff()));
-            rgb.oriented(o)
+            let turned = raw_formats::framing::orient_samples(&data, width, height, channels, o);
+            if o.swaps_axes() {
+                (turned, height, width)
+            } else {
+                (turned, width, height)
+            }
         }
     };
-    Ok((rgb, (!done.is_empty()).then(|| done.join("; "))))
+    Ok((
+        data,
+        width,
+        height,
+        (!done.is_empty()).then(|| done.join("; ")),
+    ))
 }
 
 /// How [`execute`] runs the pipeline.

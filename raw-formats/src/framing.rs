@@ -117,51 +117,87 @@ impl Orientation {
     }
 }
 
+/// The samples inside `crop` of a `width`-wide image of `channels` samples per pixel, row by
+/// row (for any sample type: the Python package frames `u8`, `u16` and `f32` output alike).
+pub fn crop_samples<T: Copy>(
+    data: &[T],
+    width: usize,
+    channels: usize,
+    crop: Crop,
+) -> Result<Vec<T>> {
+    let height = data.len() / (width * channels).max(1);
+    crop.check(width, height)?;
+    let c = channels;
+    let mut out = Vec::with_capacity(crop.width * crop.height * c);
+    for row in data
+        .chunks_exact(width * c)
+        .skip(crop.top)
+        .take(crop.height)
+    {
+        out.extend_from_slice(&row[crop.left * c..(crop.left + crop.width) * c]);
+    }
+    Ok(out)
+}
+
+/// The samples of a stored `width` x `height` image of `channels` samples per pixel as
+/// displayed: turned or mirrored as `orientation` says (width and height swap where
+/// [`Orientation::swaps_axes`]).
+pub fn orient_samples<T: Copy>(
+    data: &[T],
+    width: usize,
+    height: usize,
+    channels: usize,
+    orientation: Orientation,
+) -> Vec<T> {
+    if orientation == Orientation::Normal {
+        return data.to_vec();
+    }
+    let (w, h, c) = (width, height, channels);
+    let (out_w, out_h) = if orientation.swaps_axes() {
+        (h, w)
+    } else {
+        (w, h)
+    };
+    let mut out = Vec::with_capacity(data.len());
+    for y in 0..out_h {
+        for x in 0..out_w {
+            let (sx, sy) = orientation.source(x, y, w, h);
+            let at = (sy * w + sx) * c;
+            out.extend_from_slice(&data[at..at + c]);
+        }
+    }
+    out
+}
+
 impl Image {
     /// The pixels inside `crop`.
     pub fn cropped(&self, crop: Crop) -> Result<Image> {
         crop.check(self.width, self.height)?;
-        let c = self.channels;
-        let mut data = Vec::with_capacity(crop.width * crop.height * c);
-        for row in self
-            .data
-            .chunks_exact(self.width * c)
-            .skip(crop.top)
-            .take(crop.height)
-        {
-            data.extend_from_slice(&row[crop.left * c..(crop.left + crop.width) * c]);
-        }
         Ok(Image {
             width: crop.width,
             height: crop.height,
-            data,
+            data: crop_samples(&self.data, self.width, self.channels, crop)?,
             ..*self
         })
     }
 
     /// The image as displayed: turned or mirrored as `orientation` says.
     pub fn oriented(&self, orientation: Orientation) -> Image {
-        if orientation == Orientation::Normal {
-            return self.clone();
-        }
-        let (w, h, c) = (self.width, self.height, self.channels);
         let (out_w, out_h) = if orientation.swaps_axes() {
-            (h, w)
+            (self.height, self.width)
         } else {
-            (w, h)
+            (self.width, self.height)
         };
-        let mut data = Vec::with_capacity(self.data.len());
-        for y in 0..out_h {
-            for x in 0..out_w {
-                let (sx, sy) = orientation.source(x, y, w, h);
-                let at = (sy * w + sx) * c;
-                data.extend_from_slice(&self.data[at..at + c]);
-            }
-        }
         Image {
             width: out_w,
             height: out_h,
-            data,
+            data: orient_samples(
+                &self.data,
+                self.width,
+                self.height,
+                self.channels,
+                orientation,
+            ),
             ..*self
         }
     }
