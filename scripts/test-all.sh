@@ -51,3 +51,11 @@ RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --locked
 
 step "tests (cargo test --workspace, with doctests)"
 cargo test --workspace --locked
+
+# The Python package (python/): built by maturin into the oracle's environment (an editable
+# install, in cargo profile `python`: the tests' optimisation), then its pytest suite, which
+# compares it with rawpy and with the `camsim` command that `cargo test` built above.
+step "Python package (maturin develop into .venv, pytest python/tests)"
+(cd python && VIRTUAL_ENV="$PWD/../.venv" ../.venv/bin/maturin develop --locked --profile python --quiet)
+CAMSIM_BIN="$PWD/target/debug/camsim" .venv/bin/python -m pytest -q -p no:cacheprovider \
+  --doctest-modules python/tests python/camsim/optics.py
