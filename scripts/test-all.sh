@@ -57,5 +57,5 @@ cargo test --workspace --locked
 # compares it with rawpy and with the `camsim` command that `cargo test` built above.
 step "Python package (maturin develop into .venv, pytest python/tests)"
 (cd python && VIRTUAL_ENV="$PWD/../.venv" ../.venv/bin/maturin develop --locked --profile python --quiet)
-CAMSIM_BIN="$PWD/target/debug/camsim" .venv/bin/python -m pytest -q -p no:cacheprovider \
+CAMSIM_BIN="${CARGO_TARGET_DIR:-$PWD/target}/debug/camsim" .venv/bin/python -m pytest -q -p no:cacheprovider \
   --doctest-modules python/tests python/camsim/optics.py

@@ -385,7 +385,9 @@ def develop(
       (8 or 16: ``uint8`` or ``uint16`` sRGB), ``linear=True`` (``float32`` linear sRGB in
       [0, 1]: the float path's output before rounding, decoded with the sRGB curve),
       ``crop`` (``"default"`` or ``"active"``), ``baseline_exposure``, ``threads`` (bands in
-      parallel; the output does not depend on it), ``stage_times``.
+      parallel; the output does not depend on it), ``stage_times``;
+    - ``out``: a C-contiguous (height, width, 3) array of the output's dtype to write into
+      (returned), so a loop over frames reuses one buffer.
 
     Returns the (height, width, 3) image, and with ``report=True`` also the report dict.
     """

@@ -3,7 +3,7 @@
 //! an array, whole-frame demosaicing, the white-balance estimators and the colour-matrix fit.
 
 use camsim::develop::{
-    frame_samples, stage_names, with_prepared, IspReport, Noise, RawInput, RunOptions, Runner,
+    frame_samples, stage_names, with_prepared, IspReport, RawInput, RunOptions, Runner,
 };
 use camsim::isp_options::{self as options, IspOptions, ShadingGrid, WhiteBalance};
 use isp_core::dpc::Defect;
@@ -23,7 +23,7 @@ use crate::raw::{samples, RawFile};
 
 /// The options `develop` takes, by their Python names (the command line's flags with `_` for
 /// `-`), in the order the documentation lists them.
-const KEYS: [&str; 28] = [
+const KEYS: [&str; 29] = [
     "pattern",
     "bits",
     "black_level",
@@ -52,6 +52,7 @@ const KEYS: [&str; 28] = [
     "baseline_exposure",
     "threads",
     "stage_times",
+    "out",
 ];
 
 /// What `develop`'s keyword arguments resolve to.
@@ -192,7 +193,7 @@ fn settings(kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<Settings> {
                 }
                 s.threads = t;
             }
-            "stage_times" => {}
+            "stage_times" | "out" => {}
             other => {
                 return Err(errors::option(format!(
                     "unknown option {other:?}; known options: {}",
@@ -256,55 +257,191 @@ enum Developed {
     U8(Vec<u8>),
     U16(Vec<u16>),
     F32(Vec<f32>),
+    /// Written into the caller's array.
+    InPlace,
+}
+
+/// Where the developed samples go: new memory, or the caller's C-contiguous array.
+enum Target<'a> {
+    New,
+    U8(&'a mut [u8]),
+    U16(&'a mut [u16]),
+    F32(&'a mut [f32]),
+}
+
+/// Width and height of a `w` x `h` developed image after `framing` as `crop` asks.
+fn framed_size(
+    w: usize,
+    h: usize,
+    framing: &raw_formats::dng::Framing,
+    crop: options::CropChoice,
+) -> (usize, usize) {
+    let (w, h) = match (crop, framing.default_crop) {
+        (options::CropChoice::Default, Some(c)) => (c.width, c.height),
+        _ => (w, h),
+    };
+    if framing.orientation.swaps_axes() {
+        (h, w)
+    } else {
+        (w, h)
+    }
+}
+
+/// What [`develop_into`] ran: the new samples (`None` when written into the caller's array),
+/// the run's time in milliseconds, and what framing did.
+type Ran<O> = (Option<Vec<O>>, f64, Option<String>);
+
+/// Runs `runner` into `target` (or new memory), `finish` applied to every sample, then frames
+/// the image: the new samples (`None` when written into `target`), the time of the run in
+/// milliseconds and what framing did.
+#[allow(clippy::too_many_arguments)]
+fn develop_into<O: isp_core::pipeline::OutputSample + Default + Send + Copy>(
+    runner: &mut Runner<'_>,
+    target: Option<&mut [O]>,
+    (w, h): (usize, usize),
+    framing: &raw_formats::dng::Framing,
+    crop: options::CropChoice,
+    finish: fn(&mut [O]),
+    out_shape: &[usize],
+) -> Result<Ran<O>, camsim::Error> {
+    let (fw, fh) = framed_size(w, h, framing, crop);
+    let unframed =
+        (fw, fh) == (w, h) && framing.orientation == raw_formats::dng::Orientation::Normal;
+    match target {
+        Some(t) if t.len() != 3 * fw * fh || out_shape != [fh, fw, 3] => {
+            Err(camsim::Error::Message(format!(
+                "out must have shape ({fh}, {fw}, 3) for this frame and these options (got {out_shape:?})"
+            )))
+        }
+        Some(t) if unframed => {
+            let ms = runner.best_ms(t, 1)?;
+            finish(t);
+            Ok((None, ms, None))
+        }
+        target => {
+            let mut v = vec![O::default(); 3 * w * h];
+            let ms = runner.best_ms(&mut v, 1)?;
+            finish(&mut v);
+            let (v, _, _, framed) = frame_samples(v, w, h, 3, framing, crop)?;
+            match target {
+                Some(t) => {
+                    t.copy_from_slice(&v);
+                    Ok((None, ms, framed))
+                }
+                None => Ok((Some(v), ms, framed)),
+            }
+        }
+    }
+}
+
+fn decode_all(v: &mut [f32]) {
+    for x in v {
+        *x = isp_core::srgb::decode(*x);
+    }
 }
 
 /// Develops `input` as `camsim isp` does, into an output of the asked depth (no conversion
-/// between depths): the samples, width, height and the report as JSON.
+/// between depths), new or the caller's: the samples, width, height and the report as JSON.
 fn run(
     input: &RawInput,
     s: &Settings,
     stage_times: bool,
+    target: Target<'_>,
+    out_shape: &[usize],
 ) -> Result<(Developed, usize, usize, String), camsim::Error> {
     with_prepared(input, &s.options, s.calibration, |p| {
         let (w, h) = (p.input.width(), p.input.height());
         let linear_input = matches!(p.input, Input::Linear(_));
         let mut runner = Runner::new(&p.input, &p.config, p.fixed, p.out_bits, s.threads)?;
-        let n = 3 * w * h;
-        let (out, total_ms) = if s.linear {
-            let mut v = vec![0f32; n];
-            let ms = runner.best_ms(&mut v, 1)?;
-            for x in &mut v {
-                *x = isp_core::srgb::decode(*x);
-            }
-            (Developed::F32(v), ms)
-        } else if p.out_bits == 8 {
-            let mut v = vec![0u8; n];
-            let ms = runner.best_ms(&mut v, 1)?;
-            (Developed::U8(v), ms)
-        } else {
-            let mut v = vec![0u16; n];
-            let ms = runner.best_ms(&mut v, 1)?;
-            (Developed::U16(v), ms)
+        let framing = &input.framing;
+        let size = (w, h);
+        let wrong = |asked: &str| {
+            camsim::Error::Message(format!(
+                "out must be an array of the output's dtype, {asked} for these options"
+            ))
         };
+        let (out, total_ms, framed) = match (s.linear, p.out_bits, target) {
+            (true, _, Target::F32(t)) => {
+                let (v, ms, f) = develop_into(
+                    &mut runner,
+                    Some(t),
+                    size,
+                    framing,
+                    p.crop,
+                    decode_all,
+                    out_shape,
+                )?;
+                (v.map_or(Developed::InPlace, Developed::F32), ms, f)
+            }
+            (true, _, Target::New) => {
+                let (v, ms, f) = develop_into::<f32>(
+                    &mut runner,
+                    None,
+                    size,
+                    framing,
+                    p.crop,
+                    decode_all,
+                    out_shape,
+                )?;
+                (v.map_or(Developed::InPlace, Developed::F32), ms, f)
+            }
+            (true, _, _) => return Err(wrong("float32")),
+            (false, 8, Target::U8(t)) => {
+                let (v, ms, f) = develop_into(
+                    &mut runner,
+                    Some(t),
+                    size,
+                    framing,
+                    p.crop,
+                    |_| {},
+                    out_shape,
+                )?;
+                (v.map_or(Developed::InPlace, Developed::U8), ms, f)
+            }
+            (false, 8, Target::New) => {
+                let (v, ms, f) = develop_into::<u8>(
+                    &mut runner,
+                    None,
+                    size,
+                    framing,
+                    p.crop,
+                    |_| {},
+                    out_shape,
+                )?;
+                (v.map_or(Developed::InPlace, Developed::U8), ms, f)
+            }
+            (false, 8, _) => return Err(wrong("uint8")),
+            (false, _, Target::U16(t)) => {
+                let (v, ms, f) = develop_into(
+                    &mut runner,
+                    Some(t),
+                    size,
+                    framing,
+                    p.crop,
+                    |_| {},
+                    out_shape,
+                )?;
+                (v.map_or(Developed::InPlace, Developed::U16), ms, f)
+            }
+            (false, _, Target::New) => {
+                let (v, ms, f) = develop_into::<u16>(
+                    &mut runner,
+                    None,
+                    size,
+                    framing,
+                    p.crop,
+                    |_| {},
+                    out_shape,
+                )?;
+                (v.map_or(Developed::InPlace, Developed::U16), ms, f)
+            }
+            (false, _, _) => return Err(wrong("uint16")),
+        };
+        let (w2, h2) = framed_size(w, h, framing, p.crop);
         let stage_ms = if stage_times {
             camsim::develop::stage_times(&p.input, &p.config, p.fixed, 8, s.threads, 3)?
         } else {
             Vec::new()
-        };
-        let framing = &input.framing;
-        let (out, w2, h2, framed) = match out {
-            Developed::U8(v) => {
-                let (v, w, h, d) = frame_samples(v, w, h, 3, framing, p.crop)?;
-                (Developed::U8(v), w, h, d)
-            }
-            Developed::U16(v) => {
-                let (v, w, h, d) = frame_samples(v, w, h, 3, framing, p.crop)?;
-                (Developed::U16(v), w, h, d)
-            }
-            Developed::F32(v) => {
-                let (v, w, h, d) = frame_samples(v, w, h, 3, framing, p.crop)?;
-                (Developed::F32(v), w, h, d)
-            }
         };
         let report = IspReport {
             stages: stage_names(&p.config, linear_input),
@@ -321,10 +458,7 @@ fn run(
             threads: runner.threads(),
             framing: framed,
             baseline_exposure: p.baseline_ev,
-            noise: match &p.noise {
-                Noise::Option(n) => Noise::Option(*n),
-                other => other.clone(),
-            },
+            noise: p.noise.clone(),
         };
         let json = serde_json::to_string(&report.to_json()).unwrap_or_default();
         Ok((out, w2, h2, json))
@@ -352,6 +486,7 @@ fn to_numpy<'py>(
             .map_err(bad)?
             .into_pyarray(py)
             .into_any(),
+        Developed::InPlace => py.None().into_bound(py),
     })
 }
 
@@ -361,18 +496,44 @@ fn develop_input<'py>(
     kwargs: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<(Bound<'py, PyAny>, String)> {
     let s = settings(kwargs)?;
-    let stage_times = match kwargs {
-        Some(k) => k
-            .get_item("stage_times")?
-            .map(|v| value::<bool>(&v, "stage_times", "True or False"))
-            .transpose()?
-            .unwrap_or(false),
-        None => false,
+    let item = |key: &str| -> PyResult<Option<Bound<'py, PyAny>>> {
+        Ok(match kwargs {
+            Some(k) => k.get_item(key)?.filter(|v| !v.is_none()),
+            None => None,
+        })
     };
-    let (out, w, h, report) = py
-        .detach(|| run(input, &s, stage_times))
-        .map_err(errors::camsim)?;
-    Ok((to_numpy(py, out, w, h)?, report))
+    let stage_times = item("stage_times")?
+        .map(|v| value::<bool>(&v, "stage_times", "True or False"))
+        .transpose()?
+        .unwrap_or(false);
+    let Some(out) = item("out")? else {
+        let (image, w, h, report) = py
+            .detach(|| run(input, &s, stage_times, Target::New, &[]))
+            .map_err(errors::camsim)?;
+        return Ok((to_numpy(py, image, w, h)?, report));
+    };
+    // The caller's array, written in place: C-contiguous, writeable, of the output's dtype.
+    let refuse_out = || {
+        errors::option(
+            "out must be a writeable C-contiguous numpy array of uint8, uint16 or float32",
+        )
+    };
+    let shape: Vec<usize> = out.getattr("shape")?.extract()?;
+    let report = if let Ok(mut a) = out.extract::<numpy::PyReadwriteArrayDyn<'py, u8>>() {
+        let t = a.as_slice_mut().map_err(|_| refuse_out())?;
+        py.detach(|| run(input, &s, stage_times, Target::U8(t), &shape))
+    } else if let Ok(mut a) = out.extract::<numpy::PyReadwriteArrayDyn<'py, u16>>() {
+        let t = a.as_slice_mut().map_err(|_| refuse_out())?;
+        py.detach(|| run(input, &s, stage_times, Target::U16(t), &shape))
+    } else if let Ok(mut a) = out.extract::<numpy::PyReadwriteArrayDyn<'py, f32>>() {
+        let t = a.as_slice_mut().map_err(|_| refuse_out())?;
+        py.detach(|| run(input, &s, stage_times, Target::F32(t), &shape))
+    } else {
+        return Err(refuse_out());
+    }
+    .map_err(errors::camsim)?
+    .3;
+    Ok((out, report))
 }
 
 /// Develops a file read by `read_raw` (its tags are the defaults the keyword arguments

@@ -154,3 +154,50 @@ def test_white_balance_and_colour_matrix_fit() -> None:
     camera = rng.uniform(0, 1, (24, 3))
     fitted = camsim.fit_ccm(camera, camera @ m.T)
     np.testing.assert_allclose(fitted, m, atol=1e-9)
+
+
+def test_shading_grid_defects_and_calibration_equal_the_config_files(small_dng: pathlib.Path, tmp_path: pathlib.Path) -> None:
+    grid = np.empty((3, 4, 4))
+    for y in range(3):
+        for x in range(4):
+            r2 = ((x - 1.5) / 1.5) ** 2 + ((y - 1) / 1.0) ** 2
+            grid[y, x] = [1 + 0.4 * r2, 1 + 0.3 * r2, 1 + 0.3 * r2, 1 + 0.5 * r2]
+    defects = [(10, 20), (100, 64), (3, 3)]
+    nodes = ", ".join("[" + ", ".join(repr(float(g)) for g in node) + "]" for node in grid.reshape(-1, 4))
+    config = tmp_path / "camera.toml"
+    config.write_text(
+        f"defects = {[list(d) for d in defects]}\n"
+        "[lsc]\ngrid-width = 4\ngrid-height = 3\n"
+        f"gains = [{nodes}]\n"
+    )
+    for path in ("float", "fixed"):
+        out = tmp_path / f"cli-{path}.ppm"
+        run_cli("isp", "--input", str(small_dng), "--output", str(out), "--config", str(config), "--path", path)
+        ours = camsim.imread(small_dng).postprocess(lsc=grid, defects=defects, path=path)
+        assert np.array_equal(ours, read_ppm(out)), path
+    with pytest.raises(camsim.OptionError, match="lsc must be"):
+        camsim.imread(small_dng).postprocess(lsc=np.ones((3, 4)))
+
+
+def test_out_is_written_in_place(small_dng: pathlib.Path) -> None:
+    raw = camsim.imread(small_dng)
+    expected = raw.postprocess(demosaic="mhc")
+    out = np.zeros((128, 192, 3), np.uint8)
+    assert raw.postprocess(demosaic="mhc", out=out) is out
+    assert np.array_equal(out, expected)
+    wide = np.zeros((128, 192, 3), np.uint16)
+    assert np.array_equal(raw.postprocess(out_bits=16, out=wide), raw.postprocess(out_bits=16))
+    linear = np.zeros((128, 192, 3), np.float32)
+    assert np.array_equal(raw.postprocess(linear=True, out=linear), raw.postprocess(linear=True))
+    with pytest.raises(camsim.OptionError, match=r"shape \(128, 192, 3\)"):
+        raw.postprocess(out=np.zeros((192, 128, 3), np.uint8))
+    with pytest.raises(camsim.OptionError, match="uint16"):
+        raw.postprocess(out_bits=16, out=out)
+    with pytest.raises(camsim.OptionError, match="C-contiguous"):
+        raw.postprocess(out=np.zeros((128, 192, 3), np.float64))
+    # A framed output (the file's crop and orientation) is written framed.
+    turned = np.zeros((192, 128, 3), np.uint8)
+    copy = small_dng.parent / "turned.dng"
+    camsim.imwrite_dng(copy, raw, orientation=6)
+    again = camsim.imread(copy)
+    assert np.array_equal(again.postprocess(out=turned), again.postprocess())

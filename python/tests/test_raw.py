@@ -26,7 +26,12 @@ def test_values_equal_rawpys(path: pathlib.Path) -> None:
         # LibRaw reports the second green as 0 where it equals the first.
         np.testing.assert_allclose(ours.camera_whitebalance[:3], theirs.camera_whitebalance[:3], rtol=1e-6)
         assert ours.color_matrix is not None and ours.color_matrix.shape == (3, 3)
-        assert (ours.width, ours.height) == (theirs.sizes.width, theirs.sizes.height)
+        sizes = theirs.sizes
+        assert (ours.width, ours.height) == (sizes.width, sizes.height)
+        # LibRaw's crop margins count from the raw's corner, camsim's from the active area's.
+        crop = (sizes.crop_left_margin - sizes.left_margin, sizes.crop_top_margin - sizes.top_margin, sizes.crop_width, sizes.crop_height)
+        assert ours.default_crop == crop
+        assert ours.orientation == {0: 1, 3: 3, 5: 8, 6: 6}[sizes.flip]
 
 
 def test_raw_image_is_a_view_not_a_copy() -> None:
