@@ -459,8 +459,15 @@ pub fn with_prepared<R>(
         });
     }
     let max = ((1u32 << bits) - 1) as u16;
-    if let Some(v) = image.samples.iter().find(|v| **v > max) {
-        return Err(Error::SampleRange { sample: *v, bits });
+    // The largest sample first: a max reduction vectorises (a `find` with its early exit ran
+    // one sample at a time, 3 ms of a 12 MP frame); the first offender only on refusal.
+    let largest = image.samples.iter().fold(0u16, |m, v| m.max(*v));
+    if largest > max {
+        let first = image.samples.iter().find(|v| **v > max).copied();
+        return Err(Error::SampleRange {
+            sample: first.unwrap_or(largest),
+            bits,
+        });
     }
     let black = options.black_level.clone().unwrap_or(vec![0]);
     // One per 2x2 CFA position, or per channel of a linear frame.

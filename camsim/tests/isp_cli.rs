@@ -994,6 +994,7 @@ fn bench_isp_reports_the_pipeline_beside_its_peers() {
             "{f}"
         );
         assert!(f["copy"]["ms_per_frame"].as_f64().unwrap() > 0.0, "{f}");
+        assert!(f["develop_ms"].as_f64().is_some_and(|v| v > 0.0), "{f}");
         assert!(f["stages"]
             .as_array()
             .unwrap()

@@ -201,3 +201,30 @@ def test_out_is_written_in_place(small_dng: pathlib.Path) -> None:
     camsim.imwrite_dng(copy, raw, orientation=6)
     again = camsim.imread(copy)
     assert np.array_equal(again.postprocess(out=turned), again.postprocess())
+
+
+def test_option_refusals_are_the_commands_words(small_dng: pathlib.Path, tmp_path: pathlib.Path) -> None:
+    import subprocess
+
+    from conftest import cli_path
+
+    raw = camsim.imread(small_dng)
+    cases = [
+        (["--ccm", "1,2,3"], {"ccm": [1, 2, 3]}),
+        (["--black-level", "1,2"], {"black_level": [1, 2]}),
+        (["--noise-profile", "1,2,3"], {"noise_profile": [1, 2, 3]}),
+        (["--distortion", "0.1,0.2"], {"distortion": [0.1, 0.2]}),
+        (["--gain", "100"], {"gain": 100.0}),
+    ]
+    for flags, options in cases:
+        done = subprocess.run(
+            [str(cli_path()), "isp", "--input", str(small_dng), "--output", str(tmp_path / "x.png"), *flags],
+            capture_output=True, text=True, check=False,
+        )
+        assert done.returncode != 0
+        with pytest.raises(ValueError) as caught:
+            raw.postprocess(**options)
+        # The same sentence, the option named as Python spells it.
+        key = next(iter(options))
+        expected = str(caught.value).replace(key, "--" + key.replace("_", "-"), 1)
+        assert expected in done.stderr or str(caught.value) in done.stderr, (str(caught.value), done.stderr)

@@ -117,3 +117,22 @@ def test_hostile_and_missing_files(tmp_path: pathlib.Path) -> None:
             camsim.imread(path)
         except camsim.FileFormatError:
             pass
+
+
+def test_refusals_read_as_the_commands(tmp_path: pathlib.Path) -> None:
+    import subprocess
+
+    from conftest import cli_path
+
+    good = REAL_DNGS[0].read_bytes()
+    for name, data in {"cut.dng": good[: len(good) // 2], "junk.dng": b"II*\x00" + b"\xff" * 200}.items():
+        path = tmp_path / name
+        path.write_bytes(data)
+        with pytest.raises(camsim.FileFormatError) as caught:
+            camsim.imread(path)
+        done = subprocess.run(
+            [str(cli_path()), "isp", "--input", str(path), "--output", str(tmp_path / "x.png")],
+            capture_output=True, text=True, check=False,
+        )
+        assert done.returncode != 0
+        assert str(caught.value) in done.stderr, (str(caught.value), done.stderr)
