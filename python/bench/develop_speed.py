@@ -39,17 +39,7 @@ def frame(path: pathlib.Path) -> None:
     source = camsim.imread(REPO / "data" / "real-dng" / "canon-550d-colorchart-14bit.dng")
     tile = np.array(source.raw_image)
     big = np.tile(tile, (3, 3))[:3000, :4000]
-    camsim.imwrite_dng(
-        path,
-        np.ascontiguousarray(big),
-        pattern=source.pattern,
-        bits=source.bits,
-        black_level=list(source.black_level),
-        white_level=source.white_level,
-        as_shot_neutral=source.as_shot_neutral,
-        calibrations=source.calibrations,
-        noise_profile=[1.6e-4, 8.7e-7],
-    )
+    camsim.imwrite_dng(path, np.ascontiguousarray(big), like=source, noise_profile=[1.6e-4, 8.7e-7])
 
 
 def main() -> None:

@@ -252,6 +252,7 @@ def imwrite_dng(
     baseline_exposure: Optional[float] = None,
     orientation: Optional[int] = None,
     default_crop: Optional[Tuple[int, int, int, int]] = None,
+    like: Optional[Raw] = None,
 ) -> None:
     """Writes a DNG as ``camsim demo`` writes ``raw.dng``: uncompressed 16-bit samples, the CFA
     pattern and levels, the colour tags (ColorMatrix and optional ForwardMatrix per
@@ -264,10 +265,12 @@ def imwrite_dng(
     or six values (S, O per colour R, G, B) or a (3, 2) array. ``calibrations`` is a list of
     at most two dicts with ``illuminant``, ``color_matrix`` and optionally ``forward_matrix``
     and ``camera_calibration``; ``color_matrix``/``illuminant``/``forward_matrix`` give one.
+    ``like``: a :class:`Raw` whose tags an array is written with (a crop of a camera's frame
+    keeps its pattern, levels and colour if it starts on an even row and column).
     """
-    source = raw_or_array if isinstance(raw_or_array, Raw) else None
+    source = raw_or_array if isinstance(raw_or_array, Raw) else like
     if source is not None:
-        samples = source.raw_image
+        samples = source.raw_image if isinstance(raw_or_array, Raw) else np.asarray(raw_or_array)
         defaults: Dict[str, Any] = {
             "pattern": source.pattern or "RGGB",
             "bits": source.bits,
@@ -286,10 +289,6 @@ def imwrite_dng(
         }
     else:
         samples = np.asarray(raw_or_array)
-        if samples.dtype != np.uint16:
-            raise OptionError(
-                f"raw_or_array must be a camsim.Raw or a uint16 array (got dtype {samples.dtype})"
-            )
         defaults = {
             "pattern": "RGGB",
             "bits": 16,
@@ -304,6 +303,13 @@ def imwrite_dng(
             "orientation": 1,
             "default_crop": None,
         }
+    if samples.dtype != np.uint16:
+        raise OptionError(
+            f"raw_or_array must be a camsim.Raw or a uint16 array (got dtype {samples.dtype})"
+        )
+    if like is not None and not isinstance(raw_or_array, Raw):
+        # The file's crop belongs to the whole frame, not to an array cut from it.
+        defaults["default_crop"] = None
     given = {
         "pattern": pattern,
         "bits": bits,
@@ -358,7 +364,7 @@ def imwrite_dng(
         settings["baseline_exposure"],
         int(settings["orientation"]),
         None if settings["default_crop"] is None else tuple(int(v) for v in settings["default_crop"]),
-        source._file if source is not None else None,
+        raw_or_array._file if isinstance(raw_or_array, Raw) else None,
     )
 
 

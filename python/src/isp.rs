@@ -360,82 +360,25 @@ fn run(
                 "out must be an array of the output's dtype, {asked} for these options"
             ))
         };
-        let (out, total_ms, framed) = match (s.linear, p.out_bits, target) {
-            (true, _, Target::F32(t)) => {
-                let (v, ms, f) = develop_into(
-                    &mut runner,
-                    Some(t),
-                    size,
-                    framing,
-                    p.crop,
-                    decode_all,
-                    out_shape,
-                )?;
-                (v.map_or(Developed::InPlace, Developed::F32), ms, f)
-            }
-            (true, _, Target::New) => {
-                let (v, ms, f) = develop_into::<f32>(
-                    &mut runner,
-                    None,
-                    size,
-                    framing,
-                    p.crop,
-                    decode_all,
-                    out_shape,
-                )?;
-                (v.map_or(Developed::InPlace, Developed::F32), ms, f)
-            }
-            (true, _, _) => return Err(wrong("float32")),
-            (false, 8, Target::U8(t)) => {
-                let (v, ms, f) = develop_into(
-                    &mut runner,
-                    Some(t),
-                    size,
-                    framing,
-                    p.crop,
-                    |_| {},
-                    out_shape,
-                )?;
-                (v.map_or(Developed::InPlace, Developed::U8), ms, f)
-            }
-            (false, 8, Target::New) => {
-                let (v, ms, f) = develop_into::<u8>(
-                    &mut runner,
-                    None,
-                    size,
-                    framing,
-                    p.crop,
-                    |_| {},
-                    out_shape,
-                )?;
-                (v.map_or(Developed::InPlace, Developed::U8), ms, f)
-            }
-            (false, 8, _) => return Err(wrong("uint8")),
-            (false, _, Target::U16(t)) => {
-                let (v, ms, f) = develop_into(
-                    &mut runner,
-                    Some(t),
-                    size,
-                    framing,
-                    p.crop,
-                    |_| {},
-                    out_shape,
-                )?;
-                (v.map_or(Developed::InPlace, Developed::U16), ms, f)
-            }
-            (false, _, Target::New) => {
-                let (v, ms, f) = develop_into::<u16>(
-                    &mut runner,
-                    None,
-                    size,
-                    framing,
-                    p.crop,
-                    |_| {},
-                    out_shape,
-                )?;
-                (v.map_or(Developed::InPlace, Developed::U16), ms, f)
-            }
-            (false, _, _) => return Err(wrong("uint16")),
+        // One arm per output type: the caller's array must be of that type.
+        macro_rules! into {
+            ($variant:ident, $ty:ty, $name:literal, $finish:expr) => {{
+                let t = match target {
+                    Target::$variant(t) => Some(t),
+                    Target::New => None,
+                    _ => return Err(wrong($name)),
+                };
+                let (v, ms, f) =
+                    develop_into::<$ty>(&mut runner, t, size, framing, p.crop, $finish, out_shape)?;
+                (v.map_or(Developed::InPlace, Developed::$variant), ms, f)
+            }};
+        }
+        let (out, total_ms, framed) = if s.linear {
+            into!(F32, f32, "float32", decode_all)
+        } else if p.out_bits == 8 {
+            into!(U8, u8, "uint8", |_| {})
+        } else {
+            into!(U16, u16, "uint16", |_| {})
         };
         let (w2, h2) = framed_size(w, h, framing, p.crop);
         let stage_ms = if stage_times {

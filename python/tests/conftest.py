@@ -68,15 +68,5 @@ def small_dng(tmp_path_factory: pytest.TempPathFactory) -> pathlib.Path:
     raw = camsim.imread(source)
     crop = np.ascontiguousarray(raw.raw_image[400:528, 600:792])
     path = tmp_path_factory.mktemp("dng") / "crop.dng"
-    camsim.imwrite_dng(
-        path,
-        crop,
-        pattern=raw.pattern,
-        bits=raw.bits,
-        black_level=list(raw.black_level),
-        white_level=raw.white_level,
-        as_shot_neutral=raw.as_shot_neutral,
-        calibrations=raw.calibrations,
-        noise_profile=[1.6e-4, 8.7e-7],
-    )
+    camsim.imwrite_dng(path, crop, like=raw, noise_profile=[1.6e-4, 8.7e-7])
     return path
