@@ -228,3 +228,15 @@ def test_option_refusals_are_the_commands_words(small_dng: pathlib.Path, tmp_pat
         key = next(iter(options))
         expected = str(caught.value).replace(key, "--" + key.replace("_", "-"), 1)
         assert expected in done.stderr or str(caught.value) in done.stderr, (str(caught.value), done.stderr)
+
+
+def test_calibration_file_equals_the_command_lines(small_dng: pathlib.Path, tmp_path: pathlib.Path) -> None:
+    calibration = tmp_path / "nikon.toml"
+    run_cli("calibrate", "--camera", "nikon-5100", "--output", str(calibration))
+    for path in ("float", "fixed"):
+        out = tmp_path / f"cli-{path}.ppm"
+        run_cli("isp", "--input", str(small_dng), "--output", str(out), "--calibration", str(calibration), "--path", path)
+        ours = camsim.imread(small_dng).postprocess(calibration=calibration, path=path)
+        assert np.array_equal(ours, read_ppm(out)), path
+    with pytest.raises(FileNotFoundError):
+        camsim.imread(small_dng).postprocess(calibration=tmp_path / "none.toml")
