@@ -701,6 +701,25 @@ pub fn frame_samples<T: Copy>(
     ))
 }
 
+/// The width and height [`frame_samples`] gives a `width` x `height` image: the default
+/// crop's size where `choice` takes it, swapped where the orientation turns the image.
+pub fn framed_size(
+    width: usize,
+    height: usize,
+    framing: &Framing,
+    choice: CropChoice,
+) -> (usize, usize) {
+    let (w, h) = match (choice, framing.default_crop) {
+        (CropChoice::Default, Some(crop)) => (crop.width, crop.height),
+        _ => (width, height),
+    };
+    if framing.orientation.swaps_axes() {
+        (h, w)
+    } else {
+        (w, h)
+    }
+}
+
 /// How [`execute`] runs the pipeline.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct RunOptions {
@@ -1106,4 +1125,43 @@ fn parallel<S: Send, O: OutputSample + Send>(
             .collect::<Result<Vec<()>, IspError>>()
             .map(|_| ())
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use raw_formats::dng::{Crop, Orientation};
+
+    #[test]
+    fn framed_size_is_the_size_frame_samples_gives() {
+        let crops = [
+            None,
+            Some(Crop {
+                left: 1,
+                top: 2,
+                width: 5,
+                height: 3,
+            }),
+            Some(Crop {
+                left: 0,
+                top: 0,
+                width: 8,
+                height: 6,
+            }),
+        ];
+        for tiff in 1..=8 {
+            for default_crop in crops {
+                for choice in [CropChoice::Default, CropChoice::Active] {
+                    let framing = Framing {
+                        default_crop,
+                        orientation: Orientation::from_tiff(tiff).unwrap(),
+                    };
+                    let data = vec![0u8; 8 * 6 * 3];
+                    let (framed, w, h, _) = frame_samples(data, 8, 6, 3, &framing, choice).unwrap();
+                    assert_eq!(framed_size(8, 6, &framing, choice), (w, h));
+                    assert_eq!(framed.len(), w * h * 3);
+                }
+            }
+        }
+    }
 }

@@ -3,7 +3,7 @@
 //! an array, whole-frame demosaicing, the white-balance estimators and the colour-matrix fit.
 
 use camsim::develop::{
-    frame_samples, stage_names, with_prepared, IspReport, RawInput, RunOptions, Runner,
+    frame_samples, framed_size, stage_names, with_prepared, IspReport, RawInput, RunOptions, Runner,
 };
 use camsim::isp_options::{self as options, IspOptions, ShadingGrid, WhiteBalance};
 use isp_core::dpc::Defect;
@@ -62,6 +62,7 @@ struct Settings {
     calibration: Option<isp_core::ccm::Calibration>,
     threads: usize,
     linear: bool,
+    stage_times: bool,
 }
 
 fn refuse(e: options::OptionError) -> PyErr {
@@ -193,7 +194,9 @@ fn settings(kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<Settings> {
                 }
                 s.threads = t;
             }
-            "stage_times" | "out" => {}
+            "stage_times" => s.stage_times = value(&v, k, "True or False")?,
+            // The caller's array: `develop_input` takes it.
+            "out" => {}
             other => {
                 return Err(errors::option(format!(
                     "unknown option {other:?}; known options: {}",
@@ -269,24 +272,6 @@ enum Target<'a> {
     F32(&'a mut [f32]),
 }
 
-/// Width and height of a `w` x `h` developed image after `framing` as `crop` asks.
-fn framed_size(
-    w: usize,
-    h: usize,
-    framing: &raw_formats::dng::Framing,
-    crop: options::CropChoice,
-) -> (usize, usize) {
-    let (w, h) = match (crop, framing.default_crop) {
-        (options::CropChoice::Default, Some(c)) => (c.width, c.height),
-        _ => (w, h),
-    };
-    if framing.orientation.swaps_axes() {
-        (h, w)
-    } else {
-        (w, h)
-    }
-}
-
 /// What [`develop_into`] ran: the new samples (`None` when written into the caller's array),
 /// the run's time in milliseconds, and what framing did.
 type Ran<O> = (Option<Vec<O>>, f64, Option<String>);
@@ -345,7 +330,6 @@ fn decode_all(v: &mut [f32]) {
 fn run(
     input: &RawInput,
     s: &Settings,
-    stage_times: bool,
     target: Target<'_>,
     out_shape: &[usize],
 ) -> Result<(Developed, usize, usize, String), camsim::Error> {
@@ -381,7 +365,7 @@ fn run(
             into!(U16, u16, "uint16", |_| {})
         };
         let (w2, h2) = framed_size(w, h, framing, p.crop);
-        let stage_ms = if stage_times {
+        let stage_ms = if s.stage_times {
             camsim::develop::stage_times(&p.input, &p.config, p.fixed, 8, s.threads, 3)?
         } else {
             Vec::new()
@@ -439,19 +423,13 @@ fn develop_input<'py>(
     kwargs: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<(Bound<'py, PyAny>, String)> {
     let s = settings(kwargs)?;
-    let item = |key: &str| -> PyResult<Option<Bound<'py, PyAny>>> {
-        Ok(match kwargs {
-            Some(k) => k.get_item(key)?.filter(|v| !v.is_none()),
-            None => None,
-        })
+    let out = match kwargs {
+        Some(k) => k.get_item("out")?.filter(|v| !v.is_none()),
+        None => None,
     };
-    let stage_times = item("stage_times")?
-        .map(|v| value::<bool>(&v, "stage_times", "True or False"))
-        .transpose()?
-        .unwrap_or(false);
-    let Some(out) = item("out")? else {
+    let Some(out) = out else {
         let (image, w, h, report) = py
-            .detach(|| run(input, &s, stage_times, Target::New, &[]))
+            .detach(|| run(input, &s, Target::New, &[]))
             .map_err(errors::camsim)?;
         return Ok((to_numpy(py, image, w, h)?, report));
     };
@@ -464,13 +442,13 @@ fn develop_input<'py>(
     let shape: Vec<usize> = out.getattr("shape")?.extract()?;
     let report = if let Ok(mut a) = out.extract::<numpy::PyReadwriteArrayDyn<'py, u8>>() {
         let t = a.as_slice_mut().map_err(|_| refuse_out())?;
-        py.detach(|| run(input, &s, stage_times, Target::U8(t), &shape))
+        py.detach(|| run(input, &s, Target::U8(t), &shape))
     } else if let Ok(mut a) = out.extract::<numpy::PyReadwriteArrayDyn<'py, u16>>() {
         let t = a.as_slice_mut().map_err(|_| refuse_out())?;
-        py.detach(|| run(input, &s, stage_times, Target::U16(t), &shape))
+        py.detach(|| run(input, &s, Target::U16(t), &shape))
     } else if let Ok(mut a) = out.extract::<numpy::PyReadwriteArrayDyn<'py, f32>>() {
         let t = a.as_slice_mut().map_err(|_| refuse_out())?;
-        py.detach(|| run(input, &s, stage_times, Target::F32(t), &shape))
+        py.detach(|| run(input, &s, Target::F32(t), &shape))
     } else {
         return Err(refuse_out());
     }

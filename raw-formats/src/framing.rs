@@ -172,7 +172,6 @@ pub fn orient_samples<T: Copy>(
 impl Image {
     /// The pixels inside `crop`.
     pub fn cropped(&self, crop: Crop) -> Result<Image> {
-        crop.check(self.width, self.height)?;
         Ok(Image {
             width: crop.width,
             height: crop.height,
