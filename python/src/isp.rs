@@ -319,9 +319,24 @@ fn develop_into<O: isp_core::pipeline::OutputSample + Default + Send + Copy>(
     }
 }
 
+/// Intervals of [`decode_all`]'s table over `[0, 1]`.
+const DECODE_STEPS: usize = 4096;
+
+/// The float path's encoded output as linear light: `isp_core::srgb::decode` sampled at 4097
+/// points and interpolated linearly, within 8e-8 of the exact curve (a power per sample,
+/// 90 ns, made a 12 MP frame's linear output 40 times slower than its 8-bit output).
 fn decode_all(v: &mut [f32]) {
+    static TABLE: std::sync::OnceLock<Vec<f32>> = std::sync::OnceLock::new();
+    let table = TABLE.get_or_init(|| {
+        (0..=DECODE_STEPS)
+            .map(|i| isp_core::srgb::decode(i as f32 / DECODE_STEPS as f32))
+            .collect()
+    });
     for x in v {
-        *x = isp_core::srgb::decode(*x);
+        let at = x.clamp(0.0, 1.0) * DECODE_STEPS as f32;
+        let i = (at as usize).min(DECODE_STEPS - 1);
+        let (a, b) = (table[i], table[i + 1]);
+        *x = a + (at - i as f32) * (b - a);
     }
 }
 

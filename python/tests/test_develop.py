@@ -72,6 +72,11 @@ def test_linear_output_is_the_float_paths_before_rounding(small_dng: pathlib.Pat
     assert linear.dtype == np.float32 and linear.shape == encoded8.shape
     srgb = np.where(linear <= 0.0031308, 12.92 * linear, 1.055 * np.power(linear, 1 / 2.4) - 0.055)
     assert np.abs(np.round(srgb * 255) - encoded8).max() <= 1
+    # The linear output is the exact curve of the encoded output, up to 16-bit rounding.
+    encoded16 = raw.postprocess(out_bits=16, highlight_knee=1.0) / 65535.0
+    exact = np.where(encoded16 <= 0.04045, encoded16 / 12.92, ((encoded16 + 0.055) / 1.055) ** 2.4)
+    linear16 = raw.postprocess(linear=True, highlight_knee=1.0)
+    assert np.abs(linear16 - exact).max() < 2e-5
     with pytest.raises(camsim.OptionError, match="float path"):
         raw.postprocess(linear=True, path="fixed")
 
