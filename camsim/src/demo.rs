@@ -235,25 +235,45 @@ pub fn expose(
 
 /// The calibration to use, from a file or fitted now under A and D65: the DNG's colour tags
 /// and isp-core's calibration.
-pub(crate) fn calibration_for(settings: &DemoSettings) -> Result<(DngColour, Calibration), Error> {
-    let file = match &settings.calibration {
+///
+/// The fit under A and D65 renders and fits a chart twice; it depends only on the camera, so
+/// it is kept for the process's life (a dataset calibrates each camera once).
+pub(crate) fn calibration_for(
+    camera: &str,
+    calibration: Option<&std::path::Path>,
+) -> Result<(DngColour, Calibration), Error> {
+    static FITTED: std::sync::Mutex<Vec<(String, DngColour, Calibration)>> =
+        std::sync::Mutex::new(Vec::new());
+    let fitted = |camera: &str| {
+        let cache = FITTED.lock().unwrap_or_else(|e| e.into_inner());
+        cache
+            .iter()
+            .find(|(c, ..)| c == camera)
+            .map(|(_, d, c)| (d.clone(), *c))
+    };
+    if calibration.is_none() {
+        if let Some(found) = fitted(camera) {
+            return Ok(found);
+        }
+    }
+    let file = match calibration {
         Some(path) => {
             let file = CalibrationFile::read(path)?;
-            if file.camera != settings.camera {
+            if file.camera != camera {
                 return Err(Error::Option {
                     option: "--calibration",
                     value: format!("{} (calibrated for {})", path.display(), file.camera),
-                    allowed: format!("a calibration of --camera {}", settings.camera),
+                    allowed: format!("a calibration of --camera {camera}"),
                 });
             }
             file
         }
         None => CalibrationFile {
-            camera: settings.camera.clone(),
+            camera: camera.to_owned(),
             entries: ["A", "D65"]
                 .iter()
                 .map(|i| {
-                    calibrate::calibrate(&settings.camera, i).map(|c| CalibrationEntry {
+                    calibrate::calibrate(camera, i).map(|c| CalibrationEntry {
                         illuminant: c.illuminant,
                         cct_k: c.cct_k,
                         camera_to_xyz: c.camera_to_xyz,
@@ -274,6 +294,12 @@ pub(crate) fn calibration_for(settings: &DemoSettings) -> Result<(DngColour, Cal
             &e.camera_to_xyz,
             white,
         )?);
+    }
+    if calibration.is_none() {
+        let mut cache = FITTED.lock().unwrap_or_else(|e| e.into_inner());
+        if !cache.iter().any(|(c, ..)| c == camera) {
+            cache.push((camera.to_owned(), dng.clone(), isp));
+        }
     }
     Ok((dng, isp))
 }
@@ -454,7 +480,6 @@ pub fn capture(
     args: &DemoSettings,
     progress: &(dyn Fn(DemoProgress<'_>) + Sync),
 ) -> Result<Captured, Error> {
-    let step = |n: usize, what: &str| progress(DemoProgress::Step { n, what });
     let mut config = match args.sensor {
         SensorPreset::Realistic => SensorConfig::realistic(),
         SensorPreset::Ideal => SensorConfig::ideal(),
@@ -465,10 +490,22 @@ pub fn capture(
     config.iso = args.iso;
     config.exposure_s = args.exposure;
     config.frame_seed = args.seed;
+    capture_scene(scene_file::load(&args.scene)?, args, &config, progress)
+}
+
+/// [`capture`] of a scene already built, through the sensor `config` (whose camera, pattern,
+/// bits, ISO, exposure and seeds are used; `args`' are not): what `camsim dataset` runs on the
+/// scenes it generates. `args.scene` is not read.
+pub fn capture_scene(
+    mut scene: SceneDesc,
+    args: &DemoSettings,
+    config: &SensorConfig,
+    progress: &(dyn Fn(DemoProgress<'_>) + Sync),
+) -> Result<Captured, Error> {
+    let step = |n: usize, what: &str| progress(DemoProgress::Step { n, what });
     config.validate()?;
 
     // 1. Render, under the illuminant asked for.
-    let mut scene = scene_file::load(&args.scene)?;
     let illuminant = match (&args.illuminant, &scene.illuminant) {
         (None, own) => own.clone().unwrap_or_else(|| "D65".into()),
         (Some(asked), Some(_)) if scene.is_spectral() => {
@@ -508,21 +545,21 @@ pub fn capture(
         2,
         &format!(
             "sensor: {} ({}), {}-bit ADC",
-            args.camera,
+            config.camera,
             args.sensor.name(),
-            args.bits
+            config.adc_bits
         ),
     );
     let sensor_start = Instant::now();
-    let response = Response::named(&args.camera)?;
+    let response = Response::named(&config.camera)?;
     let spectral = !image.bands.is_empty();
-    let capture = expose(&scene, &image, &response, &config)?;
+    let capture = expose(&scene, &image, &response, config)?;
     let sensor_s = sensor_start.elapsed().as_secs_f64();
 
     // 3. Calibration and white balance.
     step(3, "colour calibration and white balance");
     let (dng_colour, calibration) = if spectral {
-        calibration_for(args)?
+        calibration_for(&config.camera, args.calibration.as_deref())?
     } else {
         // The RGB path: camera RGB is linear sRGB.
         let m = colour::LINEAR_SRGB_TO_XYZ;

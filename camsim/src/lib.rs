@@ -7,6 +7,8 @@
 //!   by ablation (`camsim isp`, and the ISP step of `camsim demo`).
 //! - [`demo`]: the whole camera: render (host-tracer), sensor, DNG (raw-formats), ISP, truth,
 //!   measurements (`camsim demo`).
+//! - [`dataset`]: synthetic raw datasets, each sample a pure function of (spec, seed, index),
+//!   written atomically, gathered into a checked manifest (`camsim dataset`).
 //! - [`demosaic`]: isp-core's demosaicing methods on files and their accuracy against speed
 //!   (`camsim demosaic`, `camsim bench demosaic`).
 //! - [`dof`]: the depth-of-field calculator (`camsim dof`).
@@ -17,6 +19,7 @@
 //! Errors are [`Error`] values; quality figures come from [`isp_core::metrics`].
 #![warn(missing_docs)]
 
+pub mod dataset;
 pub mod demo;
 pub mod demosaic;
 pub mod develop;

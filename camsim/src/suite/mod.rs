@@ -1581,7 +1581,8 @@ fn awb_suite(settings: &SuiteSettings, progress: ProgressFn<'_>) -> Result<AwbSu
             key_only,
         ),
     ];
-    let (_, calibration) = crate::demo::calibration_for(&crate::demo::DemoSettings::default())?;
+    let (_, calibration) =
+        crate::demo::calibration_for(&crate::demo::DemoSettings::default().camera, None)?;
     let to_xyz = calibration.camera_to_xyz(6504.0)?;
     let response = Response::named(AWB_CAMERA)?;
     let mut config = SensorConfig::realistic();

@@ -11,7 +11,7 @@ mod cli_args;
 mod commands;
 mod progress;
 
-use commands::{bench, calibrate, demo, demosaic, dof, isp, render};
+use commands::{bench, calibrate, dataset, demo, demosaic, dof, isp, render};
 
 #[derive(Parser)]
 #[command(
@@ -43,6 +43,10 @@ enum Command {
     /// Fit a camera's colour matrix on a rendered ColorChecker (under A and D65 by default)
     /// and write it for camsim isp and camsim demo.
     Calibrate(calibrate::CalibrateArgs),
+    /// Render a synthetic raw dataset from a spec: each sample (raw DNG, truth EXRs, record)
+    /// a pure function of (spec, seed, index), written atomically; --index, --range or --shard
+    /// for one worker's share; --index-manifest gathers and checks a finished one.
+    Dataset(Box<dataset::DatasetArgs>),
     /// Measure accuracy against speed. Without a subcommand: every suite, with its peers,
     /// written as JSON, SVG charts and a Markdown summary into --out.
     Bench(Box<bench::BenchArgs>),
@@ -66,6 +70,7 @@ fn main() -> ExitCode {
         Command::Render(args) => render::run(args),
         Command::Demo(args) => demo::run(args),
         Command::Calibrate(args) => calibrate::run(args),
+        Command::Dataset(args) => dataset::run(args),
         Command::Bench(args) => bench::run(args),
     };
     match result {
