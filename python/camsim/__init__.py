@@ -9,7 +9,7 @@ Raw files::
 
 The ISP on arrays: :func:`develop`, :func:`demosaic`, :func:`estimate_white_balance`,
 :func:`fit_ccm`. The simulator: :func:`render`, :class:`Sensor`. Thin-lens optics:
-:mod:`camsim.optics`.
+:mod:`camsim.optics`. Datasets at scale, on Ray: :mod:`camsim.dataset`.
 
 Every pixel loop runs in Rust with the GIL released, so threads develop in parallel. Errors
 are :class:`FileFormatError`, :class:`OptionError` and :class:`ProcessingError` (all
@@ -28,6 +28,7 @@ import numpy as np
 from . import _camsim
 from ._camsim import FileFormatError, OptionError, ProcessingError
 from . import optics
+from . import dataset
 from ._sim import Capture, Radiance, Sensor, cameras, render, scene_names
 
 __all__ = [
@@ -48,6 +49,7 @@ __all__ = [
     "Sensor",
     "Capture",
     "optics",
+    "dataset",
     "FileFormatError",
     "OptionError",
     "ProcessingError",

@@ -1,11 +1,12 @@
 //! `camsim._camsim`, the compiled half of the Python package `camsim` (python/camsim/): the
 //! DNG reader and writer, the ISP, the renderer and sensor model and the lens equations on
-//! numpy arrays. The Python half wraps these functions in the API users see (`imread`,
+//! numpy arrays, and the dataset generator's calls. The Python half wraps these functions in the API users see (`imread`,
 //! `Raw`, `develop`, ...) and documents it; this module converts, checks and releases the
 //! GIL around every pixel loop.
 //!
 //! Errors are raised as the classes in `errors.rs`, with the command line's one-line messages.
 
+mod dataset;
 mod errors;
 mod isp;
 mod optics;
@@ -21,5 +22,6 @@ fn _camsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
     isp::register(m)?;
     sim::register(m)?;
     optics::register(m)?;
+    dataset::register(m)?;
     Ok(())
 }
