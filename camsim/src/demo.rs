@@ -409,8 +409,10 @@ pub struct Captured {
     pub awb: wb::AwbEstimate,
     /// Its angle to the true illuminant's neutral, degrees.
     pub awb_angular_error_deg: f64,
-    /// The colour matrix for the AWB's white balance.
-    pub ccm: [[f32; 3]; 3],
+    /// The colour matrix for the AWB's white balance, or why the ISP cannot have one (a
+    /// camera and light whose matrix needs coefficients beyond isp-core's range): the raw
+    /// frame and the truth are good either way.
+    pub ccm: Result<[[f32; 3]; 3], isp_core::IspError>,
     /// The factory defect map.
     pub defects: Vec<Defect>,
     /// The factory shading grid (17 x 13 nodes, Q4.12), if the sensor shades.
@@ -452,6 +454,7 @@ impl Captured {
         denoise: f32,
         chroma_denoise: f32,
     ) -> Result<IspConfig<'_>, Error> {
+        let ccm = self.ccm.map_err(|e| Error::in_stage("colour matrix", e))?;
         Ok(IspConfig {
             dpc: DpcConfig {
                 static_defects: &self.defects,
@@ -467,7 +470,7 @@ impl Captured {
             denoise,
             noise: Some(self.capture.noise_profile),
             highlight_knee: develop::DEFAULT_HIGHLIGHT_KNEE,
-            ccm: self.ccm,
+            ccm,
             chroma_denoise,
             ..IspConfig::default()
         })
@@ -605,10 +608,7 @@ pub fn capture_scene(
         _ => illuminant,
     };
     let awb_angular_error_deg = angular_error_deg(awb.neutral.map(|v| v as f64), true_neutral);
-    let ccm = calibration
-        .ccm_for_white_balance(awb.gains)
-        .map_err(|e| Error::in_stage("colour matrix", e))?
-        .ccm;
+    let ccm = calibration.ccm_for_white_balance(awb.gains).map(|c| c.ccm);
 
     // The truth is the scene as a perfectly white-balanced camera shows it, scaled so that a
     // neutral with camera green g (in ISP units) comes out of a perfect ISP at g.
@@ -730,6 +730,10 @@ pub fn run(
         ..
     } = captured;
     let (w, h) = (captured.width(), captured.height());
+    // The demo develops what it writes: a frame the ISP cannot develop fails before any file.
+    if let Err(e) = captured.ccm {
+        return Err(Error::in_stage("colour matrix", e));
+    }
 
     // 4. Files: DNG, plain mosaic, truth.
     step(4, "writing raw.dng, raw.png and the ground truth");

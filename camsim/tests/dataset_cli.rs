@@ -392,3 +392,38 @@ fn bad_specs_and_selections_are_refused_before_rendering() {
     assert!(!ok);
     assert!(stderr.contains("holds samples of another spec"), "{stderr}");
 }
+
+/// A camera and light whose colour matrix is beyond the ISP's range (the Sigma's Foveon-like
+/// response under A) still give a raw and its truth; the record says why there is no ISP
+/// output.
+#[test]
+fn a_frame_the_isp_cannot_develop_is_written_without_its_output() {
+    let dir = temp_dir("dataset-no-isp");
+    let spec = dir.join("spec.toml");
+    std::fs::write(
+        &spec,
+        "[dataset]\nseed = 3\ncount = 1\nwidth = 32\nheight = 24\nspp = 1\nisp = true\n\n\
+         [sensor]\ncamera = \"sigma-sdmerill\"\nilluminant = \"A\"\n",
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let (ok, _, stderr) = camsim(&["dataset", "--spec", s(&spec), "--out", s(&out)]);
+    assert!(ok, "{stderr}");
+    let sample = out.join("000000");
+    for name in [
+        "raw.dng",
+        "truth_camera.exr",
+        "truth_srgb.exr",
+        "record.json",
+    ] {
+        assert!(sample.join(name).is_file(), "{name}");
+    }
+    assert!(!sample.join("srgb.png").exists());
+    let record: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(sample.join("record.json")).unwrap())
+            .unwrap();
+    assert!(record["capture"]["ccm"].is_null(), "{record}");
+    let why = record["isp_refused"].as_str().unwrap();
+    assert!(why.starts_with("colour matrix: "), "{why}");
+    assert!(record["files"].get("srgb.png").is_none());
+}

@@ -445,7 +445,9 @@ pub fn generate(spec: &Spec, out: &Path, index: u64, threads: usize) -> Result<O
 
     // The ISP's output, if asked: the demo's configuration on the float path.
     let isp_start = Instant::now();
-    let developed = if spec.isp {
+    // A frame the ISP cannot develop (its colour matrix out of isp-core's range) is still a
+    // raw with its truth: written without `srgb.png`, the record saying why.
+    let developed = if spec.isp && captured.ccm.is_ok() {
         let denoise = captured.default_denoise();
         let config = captured.isp_config(
             develop::DEFAULT_METHOD,
@@ -536,9 +538,13 @@ pub fn generate(spec: &Spec, out: &Path, index: u64, threads: usize) -> Result<O
                 "defects": captured.defects.len(),
                 "as_shot_neutral": captured.awb.neutral,
                 "awb_angular_error_deg": captured.awb_angular_error_deg,
-                "ccm": captured.ccm,
+                "ccm": captured.ccm.ok(),
             }),
         );
+        if let Err(e) = captured.ccm {
+            let why = Error::in_stage("colour matrix", e).to_string();
+            record.insert("isp_refused".into(), json!(why));
+        }
         record.insert("files".into(), Value::Object(files));
         let text = serde_json::to_string_pretty(&Value::Object(record.clone()))
             .map_err(|e| Error::Message(e.to_string()))?
