@@ -518,3 +518,54 @@ fn check_values(field: &str, key: &str, draw: &Draw) -> Result<(), Error> {
         _ => Ok(()),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn draw(text: &str, kind: Kind) -> Result<Draw, Error> {
+        let value: Table = format!("v = {text}").parse().unwrap();
+        Draw::parse("test.v", &value["v"], kind)
+    }
+
+    #[test]
+    fn ranges_stay_inside_and_choices_are_equally_likely() {
+        let mut rng = Rng::new(1, 2);
+        let log = draw("{ min = 100, max = 6400, log = true }", Kind::Number).unwrap();
+        let values: Vec<f64> = (0..4000).map(|_| log.number(&mut rng)).collect();
+        assert!(values.iter().all(|v| (100.0..=6400.0).contains(v)));
+        // Log-uniform: half the draws below the geometric mean, 800.
+        let below = values.iter().filter(|v| **v < 800.0).count();
+        assert!((1800..2200).contains(&below), "{below}");
+        let choice = draw("[\"a\", \"b\", \"c\"]", Kind::Text).unwrap();
+        let mut counts = [0; 3];
+        for _ in 0..3000 {
+            counts[(choice.text(&mut rng).as_bytes()[0] - b'a') as usize] += 1;
+        }
+        assert!(counts.iter().all(|c| (900..1100).contains(c)), "{counts:?}");
+        assert_eq!(draw("12", Kind::Number).unwrap().number(&mut rng), 12.0);
+    }
+
+    #[test]
+    fn draws_of_the_wrong_kind_or_shape_are_refused() {
+        for (text, kind, message) in [
+            ("\"D65\"", Kind::Number, "takes finite numbers"),
+            ("[1, \"a\"]", Kind::Number, "takes finite numbers"),
+            ("3", Kind::Text, "takes names"),
+            ("[]", Kind::Text, "at least one value"),
+            ("{ min = 2, max = 1 }", Kind::Number, "min <= max"),
+            ("{ min = 0, max = 1, log = true }", Kind::Number, "min > 0"),
+            (
+                "{ min = 0, maximum = 1 }",
+                Kind::Number,
+                "unknown key \"maximum\"",
+            ),
+        ] {
+            let e = draw(text, kind).unwrap_err().to_string();
+            assert!(
+                e.starts_with("dataset spec: test.v: ") && e.contains(message),
+                "{text}: {e}"
+            );
+        }
+    }
+}
