@@ -9,14 +9,14 @@ use common::{camsim, temp_dir};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-const COUNT: u64 = 7;
+const COUNT: u64 = 9;
 
 /// A small spec drawing every generator, a built-in RGB scene and every parameter.
 fn spec(dir: &Path) -> PathBuf {
     let images = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/kodak");
     let text = format!(
         r#"[dataset]
-seed = 1
+seed = 19
 count = {COUNT}
 width = 40
 height = 30
@@ -24,7 +24,7 @@ spp = 2
 isp = true
 
 [scene]
-generators = ["colorchecker", "primitives", "textured-plane", "demo", "cornell-box"]
+generators = ["colorchecker", "slanted-edge", "checkerboard", "primitives", "textured-plane", "demo", "cornell-box"]
 images = {images:?}
 texture_cells = 24
 objects = {{ min = 2, max = 6 }}
@@ -137,7 +137,15 @@ fn any_split_order_and_thread_count_writes_the_same_bytes() {
             r["scene"]["generator"].as_str().unwrap().to_owned()
         })
         .collect();
-    for g in ["colorchecker", "primitives", "textured-plane"] {
+    for g in [
+        "colorchecker",
+        "slanted-edge",
+        "checkerboard",
+        "primitives",
+        "textured-plane",
+        "demo",
+        "cornell-box",
+    ] {
         assert!(
             generators.iter().any(|x| x == g),
             "{g} not drawn: {generators:?}"
@@ -276,8 +284,8 @@ fn unfinished_and_damaged_samples_are_found_and_redone() {
     std::fs::write(out.join("000001/raw.dng"), bytes).unwrap();
     let (ok, _, stderr) = camsim(&["dataset", "--index-manifest", s(&out)]);
     assert!(!ok);
-    assert!(stderr.contains("2 of 7 samples complete"), "{stderr}");
-    assert!(stderr.contains("missing 4: 3, 4, 5, 6"), "{stderr}");
+    assert!(stderr.contains("2 of 9 samples complete"), "{stderr}");
+    assert!(stderr.contains("missing 6: 3, 4, 5, 6, 7, 8"), "{stderr}");
     assert!(
         stderr.contains("corrupt 000001: raw.dng differs from its record"),
         "{stderr}"
@@ -287,7 +295,7 @@ fn unfinished_and_damaged_samples_are_found_and_redone() {
         "{stderr}"
     );
     assert!(
-        stderr.contains("error: 4 missing and 1 corrupt samples"),
+        stderr.contains("error: 6 missing and 1 corrupt samples"),
         "{stderr}"
     );
     // Deleting the damaged sample and running again completes the dataset.
@@ -295,12 +303,12 @@ fn unfinished_and_damaged_samples_are_found_and_redone() {
     let (ok, stdout, stderr) = camsim(&["dataset", "--spec", s(&spec), "--out", s(&out)]);
     assert!(ok, "{stderr}");
     assert!(
-        stdout.contains("5 samples written, 2 already complete"),
+        stdout.contains("7 samples written, 2 already complete"),
         "{stdout}"
     );
     let (ok, stdout, stderr) = camsim(&["dataset", "--index-manifest", s(&out)]);
     assert!(ok, "{stderr}");
-    assert!(stdout.contains("7 of 7 samples complete"), "{stdout}");
+    assert!(stdout.contains("9 of 9 samples complete"), "{stdout}");
 }
 
 #[test]
@@ -351,8 +359,8 @@ fn bad_specs_and_selections_are_refused_before_rendering() {
         assert!(!out.exists(), "a refused spec wrote {}", out.display());
     }
     for (flag, value, message) in [
-        ("--index", "7", "--index"),
-        ("--range", "5..9", "--range"),
+        ("--index", "9", "--index"),
+        ("--range", "5..10", "--range"),
         ("--shard", "3/3", "--shard"),
     ] {
         let (ok, _, stderr) = camsim(&[
@@ -379,7 +387,7 @@ fn bad_specs_and_selections_are_refused_before_rendering() {
     ]);
     assert!(ok, "{stderr}");
     let other = dir.join("other.toml");
-    std::fs::write(&other, good.replace("seed = 1\n", "seed = 2\n")).unwrap();
+    std::fs::write(&other, good.replace("seed = 19\n", "seed = 20\n")).unwrap();
     let (ok, _, stderr) = camsim(&[
         "dataset",
         "--spec",

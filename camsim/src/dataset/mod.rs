@@ -213,6 +213,8 @@ fn draw(spec: &Spec, index: u64) -> Result<Drawn, Error> {
     let generated = GENERATORS.contains(&generator.as_str());
     let mut scene = match generator.as_str() {
         "colorchecker" => scenes::colorchecker(distance, aspect, &mut rng, &mut scene_record)?,
+        "slanted-edge" => scenes::slanted_edge(distance, aspect, &mut rng, &mut scene_record)?,
+        "checkerboard" => scenes::checkerboard(distance, aspect, &mut rng, &mut scene_record)?,
         "primitives" => {
             let objects = spec
                 .objects

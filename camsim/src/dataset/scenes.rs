@@ -1,5 +1,5 @@
-//! The scene generators: a ColorChecker on a board, random primitives, and a textured plane
-//! from an image set, each a pure function of its random streams. Scene units are metres; the
+//! The scene generators: a ColorChecker on a board, a slanted edge, a checkerboard, random
+//! primitives, and a textured plane from an image set, each a pure function of its random streams. Scene units are metres; the
 //! camera looks down -z at the subject at the origin from `subject_distance_m`; every light is
 //! D65 (the sample's illuminant relights it, as `camsim demo --illuminant` does).
 
@@ -213,6 +213,115 @@ pub fn colorchecker(
     );
     record.insert("chart_offset_m".into(), json!(round3(offset)));
     record.insert("board_grey".into(), json!(round3f(board_grey)));
+    Ok(b.scene)
+}
+
+/// A plate facing the camera (tilted up to `max_tilt_deg` about each axis, at random), its
+/// transform from plate units (the plate spans `[-1, 1]^2` times `half`) to the scene.
+fn plate(half: f32, max_tilt_deg: f32, rng: &mut Rng, record: &mut Map<String, Value>) -> Mat4 {
+    let tilt = [0, 1].map(|_| (uniform(rng) as f32 - 0.5) * 2.0 * max_tilt_deg.to_radians());
+    let roll = (uniform(rng) as f32 - 0.5) * 2.0 * max_tilt_deg.to_radians();
+    record.insert(
+        "tilt_deg".into(),
+        json!([round3f(tilt[0].to_degrees()), round3f(tilt[1].to_degrees())]),
+    );
+    record.insert("roll_deg".into(), json!(round3f(roll.to_degrees())));
+    Mat4::from_scale_rotation_translation(
+        Vec3::new(half, half, 1.0),
+        Quat::from_euler(glam::EulerRot::XYZ, tilt[0], tilt[1], roll),
+        Vec3::ZERO,
+    )
+}
+
+/// The quad `[x0, x1] x [y0, y1]` of plate units at height `z` (metres: a mark printed on the
+/// plate stands 1 mm proud of it, clear of the tracer's self-intersection offset), through
+/// `to_world`.
+fn plate_quad(to_world: &Mat4, x0: f32, x1: f32, y0: f32, y1: f32, z: f32) -> Vec<Shape> {
+    quad(
+        [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
+            .map(|(x, y)| to_world.transform_point3(Vec3::new(x, y, z))),
+    )
+}
+
+/// An ISO 12233-style slanted edge: a dark square turned 2 to 10 degrees on a white plate
+/// that fills the frame, for measuring sharpness (the MTF) through the lens, sensor and ISP.
+pub fn slanted_edge(
+    distance: f32,
+    aspect: f32,
+    rng: &mut Rng,
+    record: &mut Map<String, Value>,
+) -> Result<SceneDesc, Error> {
+    let mut b = Builder::new("slanted-edge", distance, rng, record)?;
+    let (half_w, half_h) = half_frame(distance, aspect);
+    let to_world = plate(1.5 * half_w.max(half_h), 10.0, rng, record);
+    let white = b.material("white".into(), Colour::Rgb([0.8; 3]));
+    let black = b.material("black".into(), Colour::Rgb([0.05; 3]));
+    b.shape(
+        "plate".into(),
+        plate_quad(&to_world, -1.0, 1.0, -1.0, 1.0, 0.0),
+        white,
+    );
+    let slant = (2.0 + 8.0 * uniform(rng) as f32) * if uniform(rng) < 0.5 { -1.0 } else { 1.0 };
+    let side = 0.2 + 0.2 * uniform(rng) as f32;
+    let square = to_world
+        * Mat4::from_rotation_z(slant.to_radians())
+        * Mat4::from_scale(Vec3::new(side, side, 1.0));
+    b.shape(
+        "edge".into(),
+        plate_quad(&square, -1.0, 1.0, -1.0, 1.0, 1e-3),
+        black,
+    );
+    record.insert("slant_deg".into(), json!(round3f(slant)));
+    record.insert("square_half_side".into(), json!(round3f(side)));
+    Ok(b.scene)
+}
+
+/// A checkerboard of 5 to 12 columns on a plate tilted up to 30 degrees, as for calibrating a
+/// camera's geometry (distortion, pose).
+pub fn checkerboard(
+    distance: f32,
+    aspect: f32,
+    rng: &mut Rng,
+    record: &mut Map<String, Value>,
+) -> Result<SceneDesc, Error> {
+    let mut b = Builder::new("checkerboard", distance, rng, record)?;
+    let (half_w, _) = half_frame(distance, aspect);
+    let columns = 5 + pick(rng, 8);
+    let rows = (columns as f32 * (0.55 + 0.3 * uniform(rng) as f32))
+        .round()
+        .max(3.0) as usize;
+    let fraction = 0.5 + 0.4 * uniform(rng) as f32;
+    let to_world = plate(fraction * half_w, 30.0, rng, record);
+    let white = b.material("white".into(), Colour::Rgb([0.85; 3]));
+    let black = b.material("black".into(), Colour::Rgb([0.04; 3]));
+    // Squares of 2 / columns plate units; a white margin of one square around them.
+    let step = 2.0 / columns as f32;
+    let (x_start, y_start) = (-1.0, rows as f32 * step / 2.0);
+    b.shape(
+        "board".into(),
+        plate_quad(
+            &to_world,
+            -1.0 - step,
+            1.0 + step,
+            -y_start - step,
+            y_start + step,
+            0.0,
+        ),
+        white,
+    );
+    for r in 0..rows {
+        for c in (0..columns).filter(|c| (c + r) % 2 == 0) {
+            let (x0, y1) = (x_start + c as f32 * step, y_start - r as f32 * step);
+            b.shape(
+                format!("square{c}_{r}"),
+                plate_quad(&to_world, x0, x0 + step, y1 - step, y1, 1e-3),
+                black,
+            );
+        }
+    }
+    b.wall(-0.5 * distance, distance, rng, record);
+    record.insert("squares".into(), json!([columns, rows]));
+    record.insert("board_width_fraction".into(), json!(round3f(fraction)));
     Ok(b.scene)
 }
 

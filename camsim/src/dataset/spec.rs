@@ -10,7 +10,13 @@ use toml::{Table, Value};
 use crate::error::Error;
 
 /// The scene generators a spec may name besides built-in scenes and scene files.
-pub const GENERATORS: [&str; 3] = ["colorchecker", "primitives", "textured-plane"];
+pub const GENERATORS: [&str; 5] = [
+    "colorchecker",
+    "slanted-edge",
+    "checkerboard",
+    "primitives",
+    "textured-plane",
+];
 
 /// One parameter: a fixed value, a choice among values, or a range.
 #[derive(Debug, Clone, PartialEq)]
