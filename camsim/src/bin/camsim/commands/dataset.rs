@@ -131,10 +131,11 @@ pub fn run(args: &DatasetArgs) -> Result<String, Error> {
         return Ok(lines);
     }
     let elapsed = started.elapsed().as_secs_f64();
+    let samples = if written == 1 { "sample" } else { "samples" };
     Ok(format!(
-        "{written} samples written, {present} already complete, in {elapsed:.1} s{}; {}\n",
+        "{written} {samples} written, {present} already complete, in {elapsed:.1} s{}; {}\n",
         if written > 0 {
-            format!(" ({:.2} s per sample written)", elapsed / written as f64)
+            format!(" ({:.2} s per sample)", elapsed / written as f64)
         } else {
             String::new()
         },
