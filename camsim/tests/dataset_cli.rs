@@ -134,6 +134,9 @@ fn any_split_order_and_thread_count_writes_the_same_bytes() {
                 &std::fs::read_to_string(reference.join(format!("{i:06}/record.json"))).unwrap(),
             )
             .unwrap();
+            // An RGB scene keeps its own lights; its record does not claim the drawn one.
+            let spectral = r["render"]["spectral"].as_bool().unwrap();
+            assert_eq!(r["sensor"]["illuminant"].is_null(), !spectral, "{r}");
             r["scene"]["generator"].as_str().unwrap().to_owned()
         })
         .collect();

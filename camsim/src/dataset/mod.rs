@@ -418,6 +418,13 @@ pub fn generate(spec: &Spec, out: &Path, index: u64, threads: usize) -> Result<O
         render_seed,
     } = drawn;
     let spectral = scene.is_spectral();
+    if !spectral {
+        // An RGB scene keeps its own lights (`render.illuminant` says what they are): the
+        // drawn illuminant was not used, so the record does not claim it.
+        if let Some(sensor) = record.get_mut("sensor").and_then(Value::as_object_mut) {
+            sensor.insert("illuminant".into(), Value::Null);
+        }
+    }
     let settings = DemoSettings {
         scene: scene.name.clone(),
         output: out.to_path_buf(),
