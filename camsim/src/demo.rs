@@ -436,6 +436,25 @@ impl Captured {
         self.capture.raw.height
     }
 
+    /// The raw DNG of this frame, as `camsim demo` and `camsim dataset` write it: the colour
+    /// calibration, the AWB's neutral as AsShotNeutral, and the noise the sensor implies as
+    /// NoiseProfile (so a developer of it needs no estimate).
+    pub fn dng(&self) -> Dng {
+        Dng {
+            image: self.capture.raw.clone(),
+            camera_model: format!("camsim {}", self.response.name()),
+            colour: DngColour {
+                as_shot_neutral: Some(self.awb.neutral.map(f64::from)),
+                ..self.dng_colour.clone()
+            },
+            framing: Default::default(),
+            processing: raw_formats::dng::Processing {
+                noise_profile: Some(self.capture.noise_profile),
+                ..Default::default()
+            },
+        }
+    }
+
     /// The demo's noise-reduction strength: the profile's default (1) where the sensor is
     /// noisy, off where it is not.
     pub fn default_denoise(&self) -> f32 {
@@ -737,20 +756,7 @@ pub fn run(
 
     // 4. Files: DNG, plain mosaic, truth.
     step(4, "writing raw.dng, raw.png and the ground truth");
-    let dng = Dng {
-        image: capture.raw.clone(),
-        camera_model: format!("camsim {}", response.name()),
-        colour: DngColour {
-            as_shot_neutral: Some(awb.neutral.map(|v| v as f64)),
-            ..captured.dng_colour.clone()
-        },
-        framing: Default::default(),
-        // The noise the sensor implies, so a developer of raw.dng needs no estimate.
-        processing: raw_formats::dng::Processing {
-            noise_profile: Some(capture.noise_profile),
-            ..Default::default()
-        },
-    };
+    let dng = captured.dng();
     dng.write(&out("raw.dng"))?;
     raw_formats::image::write(
         &out("raw.png"),

@@ -61,24 +61,55 @@ impl ManifestReport {
     }
 }
 
+/// What is wrong with a sample folder (its `Display` is the manifest's reason).
+#[derive(Debug)]
+enum Damage {
+    /// `record.json` unreadable or not JSON.
+    Record(String),
+    /// The record is another index's.
+    OtherIndex(Value),
+    /// The record lists no files.
+    NoFiles,
+    /// A listed file is unreadable.
+    Unreadable(String, std::io::Error),
+    /// A listed file's size or checksum differs from the record's.
+    Differs(String),
+}
+
+impl std::fmt::Display for Damage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Damage::Record(why) => write!(f, "record.json: {why}"),
+            Damage::OtherIndex(i) => write!(f, "record.json is for index {i}"),
+            Damage::NoFiles => write!(f, "record.json lists no files"),
+            Damage::Unreadable(name, e) => write!(f, "{name}: {e}"),
+            Damage::Differs(name) => {
+                write!(f, "{name} differs from its record (size or checksum)")
+            }
+        }
+    }
+}
+
 /// Checks one sample's record and files; the record with its folder added.
-fn check(dir: &Path, index: u64) -> Result<Value, String> {
+fn check(dir: &Path, index: u64) -> Result<Value, Damage> {
     let path = dir.join("record.json");
-    let text = std::fs::read_to_string(&path).map_err(|e| format!("record.json: {e}"))?;
-    let mut record: Value = serde_json::from_str(&text).map_err(|e| format!("record.json: {e}"))?;
+    let text = std::fs::read_to_string(&path).map_err(|e| Damage::Record(e.to_string()))?;
+    let mut record: Value =
+        serde_json::from_str(&text).map_err(|e| Damage::Record(e.to_string()))?;
     if record["index"].as_u64() != Some(index) {
-        return Err(format!("record.json is for index {}", record["index"]));
+        return Err(Damage::OtherIndex(record["index"].clone()));
     }
     let Some(files) = record["files"].as_object() else {
-        return Err("record.json lists no files".into());
+        return Err(Damage::NoFiles);
     };
     for (name, expected) in files {
-        let bytes = std::fs::read(dir.join(name)).map_err(|e| format!("{name}: {e}"))?;
+        let bytes =
+            std::fs::read(dir.join(name)).map_err(|e| Damage::Unreadable(name.clone(), e))?;
         let hash = format!("{:016x}", fnv1a(&bytes));
         if expected["bytes"].as_u64() != Some(bytes.len() as u64)
             || expected["fnv1a64"].as_str() != Some(hash.as_str())
         {
-            return Err(format!("{name} differs from its record (size or checksum)"));
+            return Err(Damage::Differs(name.clone()));
         }
     }
     let folder = dir
@@ -122,7 +153,7 @@ pub fn index_manifest(out: &Path) -> Result<ManifestReport, Error> {
                 lines.push('\n');
                 report.complete += 1;
             }
-            Err(why) => report.corrupt.push((index, why)),
+            Err(why) => report.corrupt.push((index, why.to_string())),
         }
     }
     let entries = std::fs::read_dir(out).map_err(|e| FormatError::io(out, e))?;

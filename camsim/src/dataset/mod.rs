@@ -35,7 +35,6 @@ use host_tracer::random::Rng;
 use host_tracer::sensor::{DefectConfig, SensorConfig, ShadingConfig};
 use host_tracer::tracer::scene::SceneDesc;
 use host_tracer::tracer::scene_file;
-use raw_formats::dng::{Dng, DngColour, Processing};
 use raw_formats::{exr, FormatError, Image};
 use serde_json::{json, Map, Value};
 
@@ -398,11 +397,8 @@ fn draw(spec: &Spec, index: u64) -> Result<Drawn, Error> {
 /// Generates sample `index` of `spec` into `out` (see the module docs), with `threads`
 /// render threads (0: every core). `out` must have been prepared ([`prepare_out`]).
 pub fn generate(spec: &Spec, out: &Path, index: u64, threads: usize) -> Result<Outcome, Error> {
-    if index >= spec.count {
-        return Selection::Index(index)
-            .indices(spec.count)
-            .map(|_| Outcome::Present);
-    }
+    // Refused as `--index` refuses it.
+    Selection::Index(index).indices(spec.count)?;
     let dir = sample_dir(out, index);
     if dir.join("record.json").is_file() {
         return Ok(Outcome::Present);
@@ -492,19 +488,7 @@ pub fn generate(spec: &Spec, out: &Path, index: u64, threads: usize) -> Result<O
     ));
     std::fs::create_dir_all(&tmp).map_err(|e| FormatError::io(&tmp, e))?;
     let written = (|| -> Result<(), Error> {
-        let dng = Dng {
-            image: capture.raw.clone(),
-            camera_model: format!("camsim {}", captured.response.name()),
-            colour: DngColour {
-                as_shot_neutral: Some(captured.awb.neutral.map(f64::from)),
-                ..captured.dng_colour.clone()
-            },
-            framing: Default::default(),
-            processing: Processing {
-                noise_profile: Some(capture.noise_profile),
-                ..Default::default()
-            },
-        };
+        let dng = captured.dng();
         dng.write(&tmp.join("raw.dng"))?;
         exr::write_rgb(&tmp.join("truth_camera.exr"), w, h, &capture.truth_camera)?;
         exr::write_rgb(&tmp.join("truth_srgb.exr"), w, h, &captured.truth_linear)?;
