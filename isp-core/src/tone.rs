@@ -374,7 +374,7 @@ impl ToneLut {
     ///
     /// Every entry is `channel` rounded to `u16`, as libm's `powf` gives it. Without a curve
     /// the entry is a monotone function of the contrast's power, so where the entries at the
-    /// two ends of [`power_estimate`]'s bound agree, that is the entry, and `powf` is evaluated
+    /// two ends of an `f32` estimate's error bound agree, that is the entry, and `powf` is evaluated
     /// only where they do not (a few percent of entries): on a Cortex-M4, whose FPU has no
     /// `f64`, `powf` costs about 235 instructions and the whole table 1.9 million without this.
     pub fn new(tone: &Tone) -> Self {
