@@ -315,7 +315,8 @@ fn entry_from_power(below: bool, power: f32) -> u32 {
 
 /// [`ToneLut`]'s entry for input `v` (at most 65535: the last entry of its interpolated
 /// table, 65536, has the same `x` after `channel`'s `min`), bracketed by [`power_estimate`]
-/// where `bracketed` (no curve, contrast not 1) and libm's `powf` elsewhere. Inlined into each
+/// where `bracketed` (no curve, a contrast other than 1 within `power_estimate`'s range) and
+/// libm's `powf` elsewhere. Inlined into each
 /// of the table's loops: out of line, each of the 6145 calls spilled registers and reloaded
 /// the series' constants.
 #[inline(always)]
@@ -323,7 +324,7 @@ fn tone_entry(tone: &Tone, bracketed: bool, v: usize) -> u16 {
     let exact = |v: usize| (tone.channel((v as f32 / 65535.0).min(1.0)) * 65535.0 + 0.5) as u16;
     let k = tone.contrast;
     // Inputs 0 and 65535 have the base 0; every other input's is in `(0, 1]`.
-    if !(bracketed && (0.25..=4.0).contains(&k)) || v == 0 || v >= 65535 {
+    if !bracketed || v == 0 || v >= 65535 {
         return exact(v);
     }
     let (base, below) = contrast_base(v as f32 / 65535.0);
@@ -379,7 +380,9 @@ impl ToneLut {
     /// no `f64`, `powf` costs about 235 instructions, and the table took 1.94 million
     /// instructions with it for every entry and takes 0.88 million this way.
     pub fn new(tone: &Tone) -> Self {
-        let bracketed = tone.curve.len == 0 && tone.contrast != 1.0;
+        let k = tone.contrast;
+        // Decided once for the table, not per entry.
+        let bracketed = tone.curve.len == 0 && k != 1.0 && (0.25..=4.0).contains(&k);
         let mut low = [0u16; TONE_LOW];
         for (i, v) in low.iter_mut().enumerate() {
             *v = tone_entry(tone, bracketed, i);
