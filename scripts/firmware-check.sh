@@ -90,7 +90,9 @@ for board in "${boards[@]}"; do
     --target "$target" -- -D warnings
   binary="target/firmware/$target/release/$(basename "$(sed -n 's/^name = "\(.*\)"/\1/p' "$manifest" | head -1)")"
   machine_args=(-M "$machine")
-  [ "$machine" = virt ] && machine_args+=(-cpu cortex-a53)
+  # `-M virt` adds a network card by default, whose option ROM (efi-virtio.rom) is in
+  # ipxe-qemu, a package `--no-install-recommends` leaves out: the firmware needs no network.
+  [ "$machine" = virt ] && machine_args+=(-cpu cortex-a53 -nic none)
   log="target/firmware/qemu-$machine.txt"
   status=0
   timeout 600 "$qemu" "${machine_args[@]}" -nographic -monitor none -serial none \
