@@ -204,6 +204,10 @@ pub struct DemoReport {
     pub illuminant: String,
     /// Angle between the AWB's neutral and the true illuminant's, camera RGB, degrees.
     pub awb_angular_error_deg: f64,
+    /// Why the AWB is off, where the scene's brightest surface is not neutral: its name, its
+    /// colour against the light and its angle from neutral (degrees); `None` when it is
+    /// within a degree of neutral or the AWB within two of the light.
+    pub awb_reason: Option<AwbReason>,
     /// The AWB's correlated colour temperature, kelvin.
     pub cct_k: f64,
     /// The sensor's noise profile as raw.dng states it: `source`, `scale` and `offset` per
@@ -215,6 +219,70 @@ pub struct DemoReport {
 
 fn stage_map<S: serde::Serializer>(stages: &[(String, f64)], s: S) -> Result<S::Ok, S::Error> {
     s.collect_map(stages.iter().map(|(name, ms)| (name, ms)))
+}
+
+/// The scene's brightest surface, when it is why the AWB lands off (see
+/// [`DemoReport::awb_reason`]).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct AwbReason {
+    /// The surface's material.
+    pub surface: String,
+    /// Its camera RGB over the light's, green 1.
+    pub rgb: [f64; 3],
+    /// Its angle from neutral, degrees.
+    pub angle_deg: f64,
+}
+
+/// The scene's brightest diffuse surface under its light, as the white balance sees it: its
+/// name, its camera RGB over the light's (green 1) and that colour's angle from neutral. A
+/// white-patch or grey estimate takes the brightest surfaces for white, so it lands about
+/// that far off where they are not neutral (the Cornell box's white paint is warm). `None`
+/// without a known light or surface.
+fn brightest_surface(
+    scene: &SceneDesc,
+    response: &Response,
+    illuminant: &str,
+    light: Option<([f64; 3], [f64; 3])>,
+    spectral: bool,
+) -> Option<(String, [f64; 3], f64)> {
+    use host_tracer::tracer::scene::Colour;
+    let (_, light_rgb) = light?;
+    let bands = if spectral {
+        Some(illuminant_bands(illuminant).ok()?)
+    } else {
+        None
+    };
+    let luminance = |c: [f64; 3]| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+    let mut best: Option<(String, [f64; 3])> = None;
+    for (name, colour) in &scene.materials {
+        let relative = match (colour, &bands) {
+            // Camera RGB is linear sRGB on the RGB path, and the light's colour divides out.
+            (Colour::Rgb(rgb), _) => rgb.map(f64::from),
+            (Colour::Bands(reflectance), Some(light_bands)) => {
+                let lit: Vec<f32> = reflectance
+                    .iter()
+                    .zip(light_bands.iter())
+                    .map(|(r, e)| r * e)
+                    .collect();
+                let camera = response.of_bands(&lit);
+                std::array::from_fn(|c| f64::from(camera[c]) / light_rgb[c])
+            }
+            (Colour::Bands(_), None) => continue,
+        };
+        if best
+            .as_ref()
+            .is_none_or(|(_, b)| luminance(relative) > luminance(*b))
+        {
+            best = Some((name.clone(), relative));
+        }
+    }
+    let (name, rgb) = best?;
+    // Also refuses NaN.
+    if rgb[1].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+        return None;
+    }
+    let rgb = rgb.map(|v| v / rgb[1]);
+    Some((name, rgb, angular_error_deg(rgb, [1.0; 3])))
 }
 
 /// The render of `scene` seen by a camera of spectral `response` through the sensor model
@@ -409,6 +477,10 @@ pub struct Captured {
     pub awb: wb::AwbEstimate,
     /// Its angle to the true illuminant's neutral, degrees.
     pub awb_angular_error_deg: f64,
+    /// The scene's brightest surface (name, camera RGB relative to the light's, degrees from
+    /// neutral): what a white-patch or grey estimate takes for white, and why one lands off
+    /// when that surface is not neutral.
+    pub brightest_surface: Option<(String, [f64; 3], f64)>,
     /// The colour matrix for the AWB's white balance, or why the ISP cannot have one (a
     /// camera and light whose matrix needs coefficients beyond isp-core's range): the raw
     /// frame and the truth are good either way.
@@ -617,6 +689,7 @@ pub fn capture_scene(
     }
     // The neutral a perfect AWB finds.
     let true_neutral = light.map_or([1.0; 3], |(_, rgb)| rgb.map(|v| v / rgb[1]));
+    let brightest_surface = brightest_surface(&scene, &response, &illuminant, light, spectral);
     let illuminant = match light {
         Some((_, l)) if !spectral && (l[0] != l[1] || l[1] != l[2]) => format!(
             "the scene's light, linear sRGB {:.3} {:.3} {:.3}",
@@ -720,6 +793,7 @@ pub fn capture_scene(
         dng_colour,
         awb,
         awb_angular_error_deg,
+        brightest_surface,
         ccm,
         defects,
         shading_grid,
@@ -893,6 +967,15 @@ pub fn run(
         delta_e_2000_max,
         illuminant: captured.illuminant.clone(),
         awb_angular_error_deg: captured.awb_angular_error_deg,
+        awb_reason: captured
+            .brightest_surface
+            .as_ref()
+            .filter(|(_, _, angle)| *angle > 1.0 && captured.awb_angular_error_deg > 2.0)
+            .map(|(surface, rgb, angle)| AwbReason {
+                surface: surface.clone(),
+                rgb: *rgb,
+                angle_deg: *angle,
+            }),
         cct_k: awb.cct_k,
         noise_profile: noise.to_json(),
         files: names.iter().map(|n| out(n).display().to_string()).collect(),
@@ -947,6 +1030,15 @@ fn report_text(r: &DemoReport, total_s: f64, stages: &[&str], noise: &develop::N
         "  AWB: estimated {:.0} K, {:.2} degrees from the true illuminant ({})\n",
         r.cct_k, r.awb_angular_error_deg, r.illuminant
     );
+    if let Some(reason) = &r.awb_reason {
+        let [red, green, blue] = reason.rgb;
+        t += &format!(
+            "    why: the scene's brightest surface ('{}', {red:.3} {green:.3} {blue:.3} against its \
+             light) is itself {:.1} degrees from neutral, and an estimate that takes the \
+             brightest surfaces for white lands about that far off\n",
+            reason.surface, reason.angle_deg
+        );
+    }
     t += &format!("  total {total_s:.1} s; files:\n");
     for f in &r.files {
         t += &format!("    {f}\n");
@@ -990,6 +1082,7 @@ mod tests {
             delta_e_2000_max: None,
             illuminant: "D65".into(),
             awb_angular_error_deg: 1.0,
+            awb_reason: None,
             cct_k: 6500.0,
             noise_profile: develop::Noise::Unknown("test".into()).to_json(),
             files: vec![],

@@ -69,8 +69,8 @@ pub enum Noise {
     Option(NoiseProfile),
     /// The file's NoiseProfile tag.
     File(NoiseProfile),
-    /// Estimated from the frame, over this many level sets.
-    Estimated(NoiseProfile, usize),
+    /// Estimated from the frame (with how many level sets and how confidently).
+    Estimated(crate::noise_estimate::NoiseEstimate),
     /// None could be had, and why.
     Unknown(String),
 }
@@ -85,7 +85,8 @@ impl Noise {
     /// The profile, if there is one.
     pub fn profile(&self) -> Option<NoiseProfile> {
         match self {
-            Noise::Option(p) | Noise::File(p) | Noise::Estimated(p, _) => Some(*p),
+            Noise::Option(p) | Noise::File(p) => Some(*p),
+            Noise::Estimated(e) => Some(e.profile),
             Noise::Unknown(_) => None,
         }
     }
@@ -105,9 +106,24 @@ impl Noise {
         let (p, from) = match self {
             Noise::Option(p) => (p, "from --noise-profile".to_string()),
             Noise::File(p) => (p, "from the file's NoiseProfile tag".to_string()),
-            Noise::Estimated(p, sets) => (
-                p,
-                format!("estimated from the frame, Foi et al. 2008's level sets ({sets}); --noise-profile S,O overrides"),
+            Noise::Estimated(e) => (
+                &e.profile,
+                format!(
+                    "estimated from the frame, Foi et al. 2008's level sets ({}){}; --noise-profile S,O overrides",
+                    e.sets,
+                    if e.confident() {
+                        String::new()
+                    } else {
+                        format!(
+                            ", LOW CONFIDENCE: the frame's fine texture stands above its noise \
+                             (cell variances spread {:.2}x noise's, over the {:.2} limit), so S \
+                             likely reads high; noise reduction defaults to strength {}",
+                            e.texture_spread,
+                            crate::noise_estimate::TEXTURE_SPREAD_LIMIT,
+                            e.default_strength()
+                        )
+                    }
+                ),
             ),
             Noise::Unknown(why) => return format!("noise profile: none ({why})"),
         };
@@ -124,22 +140,32 @@ impl Noise {
     }
 
     /// `{"source": ..., "scale": [R, G, B], "offset": [R, G, B]}`, or with `"reason"` when
-    /// there is none.
+    /// there is none; an estimate adds `level_sets`, `confidence` (`high`, or `low` outside the
+    /// estimate's domain: texture above noise) and `texture_spread` with its limit.
     pub fn to_json(&self) -> serde_json::Value {
+        // Each f32 as the shortest decimal that reads back to it, not its f64 widening.
+        let decimal = |v: [f32; 3]| v.map(|x| x.to_string().parse::<f64>().unwrap_or(0.0));
         match self {
             Noise::Unknown(why) => serde_json::json!({
                 "source": "none",
                 "reason": why,
             }),
-            Noise::Option(p) | Noise::File(p) | Noise::Estimated(p, _) => {
-                // Each f32 as the shortest decimal that reads back to it, not its f64 widening.
-                let decimal = |v: [f32; 3]| v.map(|x| x.to_string().parse::<f64>().unwrap_or(0.0));
+            Noise::Option(p) | Noise::File(p) => {
                 serde_json::json!({
                     "source": self.source(),
                     "scale": decimal(p.scale()),
                     "offset": decimal(p.offset()),
                 })
             }
+            Noise::Estimated(e) => serde_json::json!({
+                "source": self.source(),
+                "scale": decimal(e.profile.scale()),
+                "offset": decimal(e.profile.offset()),
+                "level_sets": e.sets,
+                "confidence": if e.confident() { "high" } else { "low" },
+                "texture_spread": e.texture_spread,
+                "texture_spread_limit": crate::noise_estimate::TEXTURE_SPREAD_LIMIT,
+            }),
         }
     }
 }
@@ -551,7 +577,8 @@ pub fn with_prepared<R>(
             })?;
             Some(
                 LensDistortion::new(fx, fy, cx, cy, model)
-                    .map_err(|e| Error::in_stage("--camera-matrix", e))?,
+                    .map_err(|e| Error::in_stage("--camera-matrix", e))?
+                    .fitted(w, h),
             )
         }
         None if options.camera_matrix.is_some() => {
@@ -574,18 +601,21 @@ pub fn with_prepared<R>(
             "a linear (demosaiced) frame is not estimated; give --noise-profile".into(),
         ),
         (None, None, Input::Mosaic(frame)) => match crate::noise_estimate::estimate(frame) {
-            Ok(e) => Noise::Estimated(e.profile, e.sets),
+            Ok(e) => Noise::Estimated(e),
             Err(e) => Noise::Unknown(format!("{e}; give --noise-profile")),
         },
     };
     // Noise reduction follows the profile by default, where it can run: a mosaic of whole
-    // 2x2 blocks with a known profile.
+    // 2x2 blocks with a known profile; gentler where the estimate is not confident.
     let denoise = options.denoise.unwrap_or(match (&raw, noise.profile()) {
         (Input::Mosaic(frame), Some(_))
             if frame.mosaic().width().is_multiple_of(2)
                 && frame.mosaic().height().is_multiple_of(2) =>
         {
-            1.0
+            match &noise {
+                Noise::Estimated(e) => e.default_strength(),
+                _ => 1.0,
+            }
         }
         _ => 0.0,
     });
@@ -600,6 +630,7 @@ pub fn with_prepared<R>(
         demosaic,
         distortion,
         denoise,
+        denoise_search: options.denoise_search.unwrap_or_default(),
         noise: noise.profile(),
         highlight_knee: options.highlight_knee.unwrap_or(DEFAULT_HIGHLIGHT_KNEE),
         ccm,

@@ -13,6 +13,7 @@
 //! ccm = [[1.6, -0.4, -0.2], [-0.3, 1.5, -0.2], [0.0, -0.5, 1.5]]
 //! demosaic = "mhc"
 //! denoise = 1.5                    # noise reduction, a multiplier on the profile's default (1); 0 is off
+//! denoise-search = "wide"          # "wide" (5x5 search, the default) or "fast" (3x3, for video and firmware)
 //! chroma-denoise = 1               # chroma noise reduction after encoding, [0, 4]; 0 is off
 //! noise-profile = [0.0032, 1.2e-5]  # var = S x + O (x: fraction of white above black); or six, S, O per R G B
 //! highlight-knee = 0.9             # clipped colour fades to neutral above it; 1 is off
@@ -39,6 +40,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use isp_core::demosaic::Method;
+use isp_core::denoise::Search;
 use isp_core::dpc::Defect;
 use isp_core::noise::NoiseProfile;
 use isp_core::tone::Look;
@@ -176,6 +178,8 @@ pub struct IspOptions {
     pub demosaic: Option<Method>,
     /// Denoise strength.
     pub denoise: Option<f32>,
+    /// Noise reduction's search window (wide, the default, or fast).
+    pub denoise_search: Option<Search>,
     /// The raw's noise profile (else the file's, else estimated from the frame).
     pub noise_profile: Option<NoiseProfile>,
     /// Dynamic defective-pixel threshold.
@@ -240,6 +244,7 @@ impl IspOptions {
             ccm: self.ccm.or(fallback.ccm),
             demosaic: self.demosaic.or(fallback.demosaic),
             denoise: self.denoise.or(fallback.denoise),
+            denoise_search: self.denoise_search.or(fallback.denoise_search),
             noise_profile: self.noise_profile.or(fallback.noise_profile),
             dpc_threshold: self.dpc_threshold.or(fallback.dpc_threshold),
             defects: self.defects.or(fallback.defects),
@@ -263,6 +268,12 @@ pub fn pattern(text: &str, what: &str) -> Result<CfaPattern> {
     text.parse().map_err(|_| {
         OptionError::not_allowed(what, "one of RGGB, BGGR, GRBG, GBRG", format!("{text:?}"))
     })
+}
+
+/// Parses the name of a noise-reduction search window: `wide` or `fast`.
+pub fn denoise_search(text: &str, what: &str) -> Result<Search> {
+    Search::from_name(text)
+        .map_err(|_| OptionError::not_allowed(what, "wide or fast", format!("{text:?}")))
 }
 
 /// Parses the name of a demosaicing method the pipeline runs.
@@ -386,7 +397,7 @@ pub fn camera_matrix(values: Vec<f64>, what: &str) -> Result<[f64; 4]> {
 }
 
 /// The file's keys, each the name of a flag (or a table the command line has no flag for).
-const KEYS: [&str; 24] = [
+const KEYS: [&str; 25] = [
     "pattern",
     "bits",
     "black-level",
@@ -397,6 +408,7 @@ const KEYS: [&str; 24] = [
     "ccm",
     "demosaic",
     "denoise",
+    "denoise-search",
     "noise-profile",
     "dpc-threshold",
     "defects",
@@ -560,6 +572,9 @@ pub fn from_toml(text: &str, file: &Path) -> Result<IspOptions> {
             "ccm" => options.ccm = Some(f.check(matrix(f.numbers()?, key))?),
             "demosaic" => options.demosaic = Some(f.check(demosaic(f.string()?, key))?),
             "denoise" => options.denoise = Some(f.scalar()? as f32),
+            "denoise-search" => {
+                options.denoise_search = Some(f.check(denoise_search(f.string()?, key))?)
+            }
             "noise-profile" => {
                 options.noise_profile = Some(f.check(noise_profile(f.numbers()?, key))?)
             }

@@ -58,6 +58,42 @@ pub struct NoiseEstimate {
     pub profile: NoiseProfile,
     /// Level sets fitted.
     pub sets: usize,
+    /// How much wider than noise alone the level sets' cell variances spread: the median over
+    /// the sets of the ratio of the median to the 5 % quantile of the cells' variances
+    /// relative to the fitted model, over that ratio for pure noise (chi-square with 16
+    /// degrees of freedom, about 1.93). About 1 where the cells are noise; texture spreads
+    /// them, and the low quantile then still holds texture.
+    pub texture_spread: f64,
+}
+
+/// A [`NoiseEstimate::texture_spread`] above this is outside the estimate's domain: the
+/// frame's fine texture stands above its noise, and `S` is overestimated. Measured on Kodak
+/// and McMaster raws (`tests/tests/noise_estimate.rs`): every case where the estimate holds
+/// within 25 % spreads less, every overestimate of `S` by more than double spreads more.
+pub const TEXTURE_SPREAD_LIMIT: f64 = 1.1;
+
+/// The default noise-reduction strength where the estimate is not confident. Distances are
+/// taken in units of the estimated variance, so an estimate `k` times too high acts as a
+/// strength `sqrt(k)` times too high; 0.5 undoes up to `k = 4`, and the worst overestimate
+/// measured outside the domain is 2.9x, so the default never smooths more than the true
+/// profile's default would.
+pub const LOW_CONFIDENCE_STRENGTH: f32 = 0.5;
+
+impl NoiseEstimate {
+    /// Whether the estimate is within its domain (noise above the image's fine texture).
+    pub fn confident(&self) -> bool {
+        self.texture_spread <= TEXTURE_SPREAD_LIMIT
+    }
+
+    /// The noise-reduction strength to default to: 1 where the estimate is confident, else
+    /// [`LOW_CONFIDENCE_STRENGTH`] (texture read as noise would otherwise be smoothed away).
+    pub fn default_strength(&self) -> f32 {
+        if self.confident() {
+            1.0
+        } else {
+            LOW_CONFIDENCE_STRENGTH
+        }
+    }
 }
 
 /// One cell: its mean signal and detail variance, in units of the white level above black.
@@ -73,7 +109,7 @@ struct Cell {
 /// about 200x200 pixels, or one clipped throughout).
 pub fn estimate(raw: &RawFrame<'_>) -> Result<NoiseEstimate, Error> {
     let mut cells = green_cells(raw);
-    let Some(((s, o), sets)) = fit_cells(&mut cells) else {
+    let Some(((s, o), sets, texture_spread)) = fit_cells(&mut cells) else {
         return Err(Error::NoiseEstimate {
             reason: "too few unclipped areas for three level sets (a frame too small, or clipped throughout)",
         });
@@ -85,7 +121,11 @@ pub fn estimate(raw: &RawFrame<'_>) -> Result<NoiseEstimate, Error> {
     let profile = NoiseProfile::uniform(s as f32, offset).map_err(|_| Error::NoiseEstimate {
         reason: "the fit is outside a noise profile's range (noise as large as the signal)",
     })?;
-    Ok(NoiseEstimate { profile, sets })
+    Ok(NoiseEstimate {
+        profile,
+        sets,
+        texture_spread,
+    })
 }
 
 /// The unclipped cells of the green quincunx. Around every other non-green site (those of the
@@ -157,8 +197,9 @@ fn green_cells(raw: &RawFrame<'_>) -> Vec<Cell> {
 /// its mean, by Wilson and Hilferty's cube-root approximation). A set spans a range of levels,
 /// and with them of variances, so each cell's variance is taken relative to the model at its
 /// own level: the model from the sets' plain means first, then from the previous fit. `None`
-/// with fewer than [`MIN_SETS`] sets.
-fn fit_cells(cells: &mut [Cell]) -> Option<((f64, f64), usize)> {
+/// with fewer than [`MIN_SETS`] sets. Also the texture spread (see
+/// [`NoiseEstimate::texture_spread`]) under the final fit.
+fn fit_cells(cells: &mut [Cell]) -> Option<((f64, f64), usize, f64)> {
     let k = (CELL * CELL) as f64;
     let a = 2.0 / (9.0 * k);
     let ratio = (1.0 - a + QUANTILE_Z * a.sqrt()).powi(3);
@@ -206,7 +247,25 @@ fn fit_cells(cells: &mut [Cell]) -> Option<((f64, f64), usize)> {
         }
         line = fit(&points);
     }
-    Some((line, sets.len()))
+    let (s, o) = line;
+    let model = |x: f64| (s * x + o).max(1e-12);
+    let quantile = |z: f64| (1.0 - a + z * a.sqrt()).powi(3);
+    let flat_spread = quantile(0.0) / ratio;
+    let mut spreads: Vec<f64> = sets
+        .iter()
+        .map(|set| {
+            let mut relative: Vec<f64> = set.iter().map(|c| c.variance / model(c.level)).collect();
+            let n = relative.len();
+            let low = *relative
+                .select_nth_unstable_by((n as f64 * QUANTILE) as usize, f64::total_cmp)
+                .1;
+            let middle = *relative.select_nth_unstable_by(n / 2, f64::total_cmp).1;
+            middle / low.max(1e-30) / flat_spread
+        })
+        .collect();
+    let middle = spreads.len() / 2;
+    let spread = *spreads.select_nth_unstable_by(middle, f64::total_cmp).1;
+    Some((line, sets.len(), spread))
 }
 
 /// `(S, O)`, both at least 0, fitted to `(level, variance, count)` points by least squares

@@ -30,15 +30,39 @@ fn main() {
         })
         .collect();
     let raw = RawFrame::new(&data, w, h, w, 10, CfaPattern::Rggb, [64; 4], 1023).unwrap();
+    // CAMSIM_STAGES names the camera's other stages to add: any of lsc, denoise, fast (the
+    // fast search), tone (vivid), as a comma-separated list.
+    let stages = std::env::var("CAMSIM_STAGES").unwrap_or_default();
+    let on = |s: &str| stages.split(',').any(|t| t == s);
+    let grid: Vec<u16> = (0..17 * 13 * 4)
+        .map(|i| 4096 + (i % 97) as u16 * 20)
+        .collect();
     let config = IspConfig {
         dpc: DpcConfig {
             static_defects: &[],
             dynamic_threshold: Some(64),
         },
+        lsc: on("lsc").then(|| isp_core::lsc::LensShading::new(17, 13, &grid).unwrap()),
         wb_gains: [1.9, 1.0, 1.6],
         demosaic: method,
+        denoise: if on("denoise") || on("fast") {
+            1.0
+        } else {
+            0.0
+        },
+        denoise_search: if on("fast") {
+            isp_core::denoise::Search::Fast
+        } else {
+            isp_core::denoise::Search::Wide
+        },
+        noise: Some(isp_core::noise::NoiseProfile::uniform(0.0008, 4.3295e-6).unwrap()),
         highlight_knee: knee,
         ccm: [[1.6, -0.4, -0.2], [-0.3, 1.5, -0.2], [0.0, -0.5, 1.5]],
+        tone: if on("tone") {
+            isp_core::tone::Look::Vivid.tone()
+        } else {
+            isp_core::tone::Tone::default()
+        },
         chroma_denoise: chroma,
         ..IspConfig::default()
     };

@@ -97,6 +97,10 @@ pub struct FloatParams {
 pub struct FixedParams {
     luma_cost: i64,
     chroma_cost: i64,
+    /// The planar passes' costs: each per-code cost capped at [`COST_CAP`] and the largest
+    /// difference whose product stays at or below it.
+    luma_capped: (u32, u32),
+    chroma_capped: (u32, u32),
 }
 
 fn check_strength(strength: f32) -> Result<bool, IspError> {
@@ -127,9 +131,19 @@ impl FixedParams {
             let per_code = f64::from(1u32 << (WEIGHT_BITS + 16)) / (65535.0 * f64::from(range));
             libm::round(per_code.min(MAX_COST)) as i64
         };
-        Ok(check_strength(strength)?.then(|| Self {
-            luma_cost: cost(LUMA_RANGE * strength),
-            chroma_cost: cost(CHROMA_RANGE * strength),
+        let capped = |per_code: i64| {
+            let per_code = per_code.clamp(0, i64::from(COST_CAP)) as u32;
+            (per_code, COST_CAP.checked_div(per_code).unwrap_or(u32::MAX))
+        };
+        Ok(check_strength(strength)?.then(|| {
+            let (luma_cost, chroma_cost) =
+                (cost(LUMA_RANGE * strength), cost(CHROMA_RANGE * strength));
+            Self {
+                luma_cost,
+                chroma_cost,
+                luma_capped: capped(luma_cost),
+                chroma_capped: capped(chroma_cost),
+            }
         }))
     }
 }
@@ -301,6 +315,14 @@ impl Arithmetic for FloatParams {
 /// Cortex-M4), as two 32-bit divisions of a long division when `den < 2^16`: the same quotient.
 #[inline(always)]
 fn recip_q40(den: i64) -> i64 {
+    // On x86-64 in `f64`, which vectorises (an `i64` division does not): for `1 <= den <
+    // 2^22` the quotient is below 2^40 and a non-integer one lies at least `1 / den` from the
+    // next integer, far more than the division's relative error of 2^-53, so the truncated
+    // quotient is the floor.
+    #[cfg(target_arch = "x86_64")]
+    if (1..1 << 22).contains(&den) {
+        return ((1u64 << RECIP_BITS) as f64 / den as f64) as i64;
+    }
     #[cfg(target_arch = "arm")]
     if let Ok(d @ 1..=0xFFFF) = u32::try_from(den) {
         // 2^40 = 2^24 * 2^16: the high digit's remainder is below `d`, so `r << 16` fits.
@@ -333,6 +355,148 @@ impl Arithmetic for FixedParams {
         let recip = recip_q40(den);
         let mean = |num: i64| ((num * recip + (1 << (RECIP_BITS - 1))) >> RECIP_BITS) as i32;
         [p[0], mean(sum[0]), mean(sum[1]), mean(sum[2])]
+    }
+}
+
+/// The planar schedule's form of the passes: a row as four planes (luma, then red, green and
+/// blue chroma), each in column order, so each tap offset is a loop over contiguous slices.
+/// The same weights and sums in the same order as [`horizontal_f32`] and [`vertical_f32`]
+/// (and their fixed twins), so the same output; the fixed path's costs are capped at
+/// 2^28 per term ([`PlanarArithmetic`] for [`FixedParams`]), which changes no weight and keeps
+/// every sum in 32 bits.
+pub(crate) trait PlanarArithmetic: Copy {
+    /// Split elements.
+    type D: Copy + Default + 'static;
+    /// Weights and weighted sums.
+    type W: Copy + Default + core::ops::Add<Output = Self::W>;
+    /// The weight of neighbour `q` for pixel `p` (luma, then the three chroma).
+    fn weight(&self, p: [Self::D; SPLIT], q: [Self::D; SPLIT]) -> Self::W;
+    /// `w c`.
+    fn times(w: Self::W, c: Self::D) -> Self::W;
+    /// The three means from their sums and the weights' sum.
+    fn means(sums: [Self::W; 3], den: Self::W) -> [Self::D; 3];
+}
+
+impl PlanarArithmetic for FloatParams {
+    type D = f32;
+    type W = f32;
+
+    #[inline(always)]
+    fn weight(&self, p: [f32; SPLIT], q: [f32; SPLIT]) -> f32 {
+        let dc = (q[1] - p[1]).abs() + (q[2] - p[2]).abs() + (q[3] - p[3]).abs();
+        let w = 1.0 - (q[0] - p[0]).abs() * self.inv_luma - dc * self.inv_chroma;
+        // `max(0)` as a select (`f32::max` is a call with a NaN rule): never NaN here.
+        if w > 0.0 {
+            w
+        } else {
+            0.0
+        }
+    }
+
+    #[inline(always)]
+    fn times(w: f32, c: f32) -> f32 {
+        w * c
+    }
+
+    #[inline(always)]
+    fn means(sums: [f32; 3], den: f32) -> [f32; 3] {
+        let r = 1.0 / den;
+        [sums[0] * r, sums[1] * r, sums[2] * r]
+    }
+}
+
+/// A fixed-path cost term at or above this zeroes the weight by itself (`(2^28 + 2^15) >> 16
+/// = 4096`), so capping each term here changes no weight.
+const COST_CAP: u32 = 1 << 28;
+
+/// A difference's cost in 32 bits, `(per_code, limit)` from [`FixedParams`]: the product where
+/// it is at most [`COST_CAP`] (`d <= limit = 2^28 / per_code`), else the cap.
+#[inline(always)]
+fn capped(d: u32, (per_code, limit): (u32, u32)) -> u32 {
+    if d <= limit {
+        d * per_code
+    } else {
+        COST_CAP
+    }
+}
+
+impl PlanarArithmetic for FixedParams {
+    type D = i32;
+    type W = i32;
+
+    #[inline(always)]
+    fn weight(&self, p: [i32; SPLIT], q: [i32; SPLIT]) -> i32 {
+        let d = |k: usize| q[k].abs_diff(p[k]);
+        // Each capped term is at most 2^28, so the sum of four fits u32; a capped term gives
+        // weight 0, as the uncapped sum would.
+        let cost = capped(d(0), self.luma_capped)
+            + capped(d(1), self.chroma_capped)
+            + capped(d(2), self.chroma_capped)
+            + capped(d(3), self.chroma_capped);
+        let w = (1i32 << WEIGHT_BITS) - ((cost.min(COST_CAP) + (1 << 15)) >> 16) as i32;
+        if w > 0 {
+            w
+        } else {
+            0
+        }
+    }
+
+    #[inline(always)]
+    fn times(w: i32, c: i32) -> i32 {
+        // w <= 2^12, |c| < 2^17: seven taps fit i32.
+        w * c
+    }
+
+    #[inline(always)]
+    fn means(sums: [i32; 3], den: i32) -> [i32; 3] {
+        let recip = recip_q40(i64::from(den));
+        let mean =
+            |num: i32| ((i64::from(num) * recip + (1 << (RECIP_BITS - 1))) >> RECIP_BITS) as i32;
+        [mean(sums[0]), mean(sums[1]), mean(sums[2])]
+    }
+}
+
+/// One pass over a row of `n` pixels in planes: `taps[k]` are the four planes of tap `k`
+/// (offset `k - RADIUS`), each aligned with the output (element `i` of tap `k` is pixel `i`'s
+/// neighbour); `out` gets luma copied from the centre tap and the means of chroma. The taps
+/// loop outside the pixels, so each tap is a loop over contiguous slices; `work` holds the
+/// four running sums (`4 n` elements), each pixel's formed in tap order as
+/// [`horizontal_f32`] forms them.
+#[inline(always)]
+pub(crate) fn pass_planes<A: PlanarArithmetic>(
+    params: &A,
+    taps: [[&[A::D]; SPLIT]; TAPS],
+    out: [&mut [A::D]; SPLIT],
+    work: &mut [A::W],
+) {
+    let [y_out, r_out, g_out, b_out] = out;
+    let n = y_out.len();
+    let (r_out, g_out, b_out) = (&mut r_out[..n], &mut g_out[..n], &mut b_out[..n]);
+    let (sr, rest) = work.split_at_mut(n);
+    let (sg, rest) = rest.split_at_mut(n);
+    let (sb, den) = rest.split_at_mut(n);
+    let den = &mut den[..n];
+    sr.fill(A::W::default());
+    sg.fill(A::W::default());
+    sb.fill(A::W::default());
+    den.fill(A::W::default());
+    let [py, pr, pg, pb] = taps[RADIUS].map(|plane| &plane[..n]);
+    for tap in &taps {
+        let [qy, qr, qg, qb] = tap.map(|plane| &plane[..n]);
+        for i in 0..n {
+            let w = params.weight([py[i], pr[i], pg[i], pb[i]], [qy[i], qr[i], qg[i], qb[i]]);
+            sr[i] = sr[i] + A::times(w, qr[i]);
+            sg[i] = sg[i] + A::times(w, qg[i]);
+            sb[i] = sb[i] + A::times(w, qb[i]);
+            den[i] = den[i] + w;
+        }
+    }
+    for i in 0..n {
+        let [r, g, b] = A::means([sr[i], sg[i], sb[i]], den[i]);
+        y_out[i] = py[i];
+        r_out[i] = r;
+        g_out[i] = g;
+        b_out[i] = b;
     }
 }
 

@@ -46,7 +46,7 @@
 //! assert!(lens.window_rows(64, 48) <= 4);
 //! ```
 
-use core::ops::RangeInclusive;
+use core::ops::{Range, RangeInclusive};
 
 pub use optics_core::distortion::BrownConrady;
 
@@ -61,6 +61,23 @@ const FRACTION_MASK: i32 = SUBPIXELS - 1;
 const WEIGHT_BITS: u32 = 2 * SUBPIXEL_BITS;
 /// Largest source position magnitude in 1/32 pixel; beyond it a pixel reads black.
 const MAX_POSITION: f64 = (1u32 << 30) as f64;
+/// Largest side of a mesh cell in pixels: a node every 16 pixels each way.
+pub const MESH_CELL: usize = 16;
+const CELL_BITS: u32 = 4;
+/// The most the mesh's position may be off the exact model, in pixels, when
+/// [`LensDistortion::fitted`] picks its cell: 1/32 pixel, the resampling's own step, with a
+/// margin of two for the estimate.
+const MESH_TOLERANCE: f64 = 1.0 / 64.0;
+/// Fractional bits of a mesh node's position: 1/256 pixel.
+pub const NODE_BITS: u32 = 8;
+/// A mesh node the model maps nowhere usable (not finite, or 2^18 pixels or more away): the
+/// pixels of the cells around it read black.
+pub const NO_NODE: i32 = i32::MIN;
+/// Largest node position magnitude in pixels: anything further is off every frame, and the
+/// bound keeps a node below 2^26 and a row of interpolated nodes below 2^30.
+const NODE_LIMIT: f64 = (1u32 << 18) as f64;
+/// Cells of one strip of the helpers that hold node rows on the stack (1024 columns).
+const STRIP_CELLS: usize = 64;
 
 /// `x` rounded to the nearest integer, ties to even, for `|x| < 2^30`: adding and subtracting
 /// 1.5 * 2^52 leaves no fraction bits, so the FPU's default rounding does it (libm's `rint`
@@ -80,6 +97,8 @@ pub struct LensDistortion {
     cx: f64,
     cy: f64,
     model: BrownConrady<f64>,
+    /// The mesh's cell side, `2^cell_bits` pixels (16 unless [`LensDistortion::fitted`]).
+    cell_bits: u32,
 }
 
 impl LensDistortion {
@@ -110,7 +129,84 @@ impl LensDistortion {
             cx,
             cy,
             model,
+            cell_bits: CELL_BITS,
         })
+    }
+
+    /// The same lens with its mesh's cell fitted to a `width` x `height` frame: the largest of
+    /// 16, 8, 4, 2 and 1 pixels whose estimated position error is at most 1/64 pixel (so the
+    /// mesh stays within 1/32 of the exact model; tested). The estimate is the error of the
+    /// 16-pixel mesh at each cell's centre and the midpoints of its top and left edges (where a
+    /// bilinear interpolation is furthest off), scaled by the square of the cell's side (the
+    /// error of a bilinear interpolation goes as the square of its step). Evaluates the model
+    /// about four times per 16x16 pixels, once, when a pipeline is configured for a frame; a
+    /// lens that covers its frame in focal lengths of a thousand pixels or more keeps cells of
+    /// 16, a small frame's lens takes finer ones.
+    pub fn fitted(mut self, width: usize, height: usize) -> Self {
+        self.cell_bits = CELL_BITS;
+        let worst = self.mesh_error_estimate(width, height);
+        while self.cell_bits > 0
+            && worst / f64::from(1u32 << (2 * (CELL_BITS - self.cell_bits))) > MESH_TOLERANCE
+        {
+            self.cell_bits -= 1;
+        }
+        self
+    }
+
+    /// The mesh's cell side in pixels (16 unless [`LensDistortion::fitted`] chose finer).
+    pub fn mesh_cell(&self) -> usize {
+        1 << self.cell_bits
+    }
+
+    /// The 16-pixel mesh's largest error against the exact model at the centres and the top
+    /// and left edge midpoints of the cells over a `width` x `height` frame, in pixels
+    /// (infinite where the model fails on a node of a cell, which then reads black anyway).
+    fn mesh_error_estimate(&self, width: usize, height: usize) -> f64 {
+        let coarse = Self {
+            cell_bits: CELL_BITS,
+            ..*self
+        };
+        let exact = |u: f64, v: f64| -> Option<[f64; 2]> {
+            let [xd, yd] = self
+                .model
+                .distort([(u - self.cx) / self.fx, (v - self.cy) / self.fy])
+                .ok()?;
+            Some([self.fx * xd + self.cx, self.fy * yd + self.cy])
+        };
+        let node = |i: usize, j: usize| exact((i * MESH_CELL) as f64, (j * MESH_CELL) as f64);
+        let cell = MESH_CELL as f64;
+        let mut worst = 0.0f64;
+        for j in 0..coarse.mesh_columns(height) - 1 {
+            for i in 0..coarse.mesh_columns(width) - 1 {
+                let (Some(a), Some(b), Some(c), Some(d)) = (
+                    node(i, j),
+                    node(i + 1, j),
+                    node(i, j + 1),
+                    node(i + 1, j + 1),
+                ) else {
+                    continue;
+                };
+                let (u0, v0) = (i as f64 * cell, j as f64 * cell);
+                // (s, t) in the cell: centre, top edge's middle, left edge's middle.
+                for (s, t) in [(0.5, 0.5), (0.5, 0.0), (0.0, 0.5)] {
+                    let Some(e) = exact(u0 + s * cell, v0 + t * cell) else {
+                        continue;
+                    };
+                    for k in 0..2 {
+                        let m = (1.0 - t) * ((1.0 - s) * a[k] + s * b[k])
+                            + t * ((1.0 - s) * c[k] + s * d[k]);
+                        let error = (m - e[k]).abs();
+                        // NaN (a wild model) counts as the largest error.
+                        worst = if error.is_nan() {
+                            f64::INFINITY
+                        } else {
+                            worst.max(error)
+                        };
+                    }
+                }
+            }
+        }
+        worst
     }
 
     /// The camera matrix entries `[fx, fy, cx, cy]`.
@@ -145,81 +241,171 @@ impl LensDistortion {
         }
     }
 
-    /// The input rows output row `v` reads (taps off the image excluded), or `None` when the
-    /// whole row is black.
+    /// Mesh nodes across a frame `width` wide: one every [`LensDistortion::mesh_cell`] pixels
+    /// from column 0, through the right edge of the last column's cell. (The same for rows and
+    /// the height.)
+    pub fn mesh_columns(&self, width: usize) -> usize {
+        (width.saturating_sub(1) >> self.cell_bits) + 2
+    }
+
+    /// Mesh node `(i, j)`: where the lens put pixel `(i c, j c)` (`c` the cell's side) by the
+    /// exact model, in 1/256 pixel (nearest, ties to even), or `[NO_NODE; 2]`.
+    pub fn mesh_node(&self, i: usize, j: usize) -> [i32; 2] {
+        let x = ((i << self.cell_bits) as f64 - self.cx) / self.fx;
+        let y = ((j << self.cell_bits) as f64 - self.cy) / self.fy;
+        let Ok([xd, yd]) = self.model.distort([x, y]) else {
+            return [NO_NODE; 2];
+        };
+        let (px, py) = (self.fx * xd + self.cx, self.fy * yd + self.cy);
+        // Also false for NaN.
+        if px.abs() < NODE_LIMIT && py.abs() < NODE_LIMIT {
+            let scale = f64::from(1u32 << NODE_BITS);
+            [round_half_even(px * scale), round_half_even(py * scale)]
+        } else {
+            [NO_NODE; 2]
+        }
+    }
+
+    /// Nodes `first..` of mesh row `j` into `out`, two elements (x, y) a node, as many nodes
+    /// as `out` holds.
+    pub fn mesh_row(&self, j: usize, first: usize, out: &mut [i32]) {
+        for (i, node) in out.chunks_exact_mut(2).enumerate() {
+            node.copy_from_slice(&self.mesh_node(first + i, j));
+        }
+    }
+
+    /// Where output pixel `(u, v)` samples the input by the mesh, in 1/32 pixel, or `None`
+    /// where a node of its cell is unusable: the nodes of its cell (`i = u / c`, `j = v / c`,
+    /// `c` the cell's side) interpolated bilinearly with the integer weights `(c - fu, fu)` and
+    /// `(c - fv, fv)` (`fu = u mod c`, `fv = v mod c`), then rounded to 1/32 pixel (half up).
+    /// The correction computes the same a row at a time; this is the definition, for tests and
+    /// single pixels.
+    pub fn mesh_position(&self, u: usize, v: usize) -> Option<[i32; 2]> {
+        let b = self.cell_bits;
+        let (mut top, mut bottom, mut row) = ([0i32; 4], [0i32; 4], [0i32; 4]);
+        self.mesh_row(v >> b, u >> b, &mut top);
+        self.mesh_row((v >> b) + 1, u >> b, &mut bottom);
+        interpolate_rows(b, &top, &bottom, v, &mut row);
+        row_position(b, &row, u & ((1 << b) - 1))
+    }
+
+    /// The mesh's position of output pixel `(u, v)` before its rounding to 1/32, in pixels, for
+    /// measuring the mesh against the exact model.
+    pub fn mesh_position_unrounded(&self, u: usize, v: usize) -> Option<[f64; 2]> {
+        let b = self.cell_bits;
+        let (mut top, mut bottom, mut row) = ([0i32; 4], [0i32; 4], [0i32; 4]);
+        self.mesh_row(v >> b, u >> b, &mut top);
+        self.mesh_row((v >> b) + 1, u >> b, &mut bottom);
+        interpolate_rows(b, &top, &bottom, v, &mut row);
+        if row.contains(&NO_NODE) {
+            return None;
+        }
+        let (c, fu) = (f64::from(1u32 << b), (u & ((1 << b) - 1)) as f64);
+        let scale = f64::from(1u32 << (2 * b + NODE_BITS));
+        Some([0, 1].map(|k| ((c - fu) * f64::from(row[k]) + fu * f64::from(row[2 + k])) / scale))
+    }
+
+    /// Widens `bounds` to the lowest and highest input rows (clipped to the frame) that any
+    /// usable node of a row of interpolated nodes points into, with the next row: a bound on
+    /// what an output row reads, since a position between two nodes lies between theirs.
+    pub(crate) fn node_row_bounds(&self, row: &[i32], height: usize, bounds: &mut (i64, i64)) {
+        for node in row.chunks_exact(2) {
+            if node[1] == NO_NODE {
+                continue;
+            }
+            let q = round_row(self.cell_bits, i64::from(node[1]) << self.cell_bits);
+            let y0 = i64::from(q >> SUBPIXEL_BITS);
+            bounds.0 = bounds.0.min(y0.max(0));
+            bounds.1 = bounds.1.max((y0 + 1).min(height as i64 - 1));
+        }
+    }
+
+    /// The input rows output row `v` reads (a bound from its cell row's nodes, see
+    /// [`LensDistortion::node_row_bounds`]), or `None` when the row reads nothing of the
+    /// frame. Evaluates the model at the nodes of `v`'s cell row.
     pub fn source_rows(
         &self,
         v: usize,
         width: usize,
         height: usize,
     ) -> Option<RangeInclusive<usize>> {
-        let (mut lo, mut hi) = (usize::MAX, 0usize);
-        for u in 0..width {
-            let Some([qx, qy]) = self.source_position(u, v) else {
-                continue;
-            };
-            let (x0, y0) = (qx >> SUBPIXEL_BITS, qy >> SUBPIXEL_BITS);
-            if x0 + 1 < 0 || x0 as i64 >= width as i64 {
-                continue;
-            }
-            for yi in [y0, y0 + 1] {
-                if yi >= 0 && (yi as i64) < height as i64 {
-                    lo = lo.min(yi as usize);
-                    hi = hi.max(yi as usize);
-                }
-            }
+        let b = self.cell_bits;
+        let mut bounds = (i64::MAX, i64::MIN);
+        let (mut top, mut bottom, mut row) = strip_rows();
+        for (first, n) in self.strips(width) {
+            self.mesh_row(v >> b, first, &mut top[..n]);
+            self.mesh_row((v >> b) + 1, first, &mut bottom[..n]);
+            interpolate_rows(b, &top[..n], &bottom[..n], v, &mut row[..n]);
+            self.node_row_bounds(&row[..n], height, &mut bounds);
         }
-        (lo <= hi).then_some(lo..=hi)
+        (bounds.0 <= bounds.1).then_some(bounds.0 as usize..=bounds.1 as usize)
     }
 
     /// The most input rows any output row of a `width` x `height` frame reads (0 when the lens
     /// shows nothing of the frame): the line buffers the correction needs. Evaluates the model
-    /// at every pixel once.
+    /// at every mesh node twice.
     pub fn window_rows(&self, width: usize, height: usize) -> usize {
-        (0..height)
-            .filter_map(|v| self.source_rows(v, width, height))
-            .map(|r| r.end() - r.start() + 1)
-            .max()
-            .unwrap_or(0)
+        self.window_rows_in(width, height, 0..height)
     }
 
-    /// Output row `v` (`3 * width` samples) of a `width` x `height` frame, reading input row
-    /// `y` through `row(y)` (`3 * width` samples) for `y` in [`Self::source_rows`] only.
-    pub(crate) fn correct_row<'r, T: Sample>(
+    /// [`LensDistortion::window_rows`] over output rows `rows` alone (a band's).
+    pub fn window_rows_in(&self, width: usize, height: usize, rows: Range<usize>) -> usize {
+        let b = self.cell_bits;
+        let cell = 1usize << b;
+        let mut most = 0;
+        let (mut top, mut bottom, mut row) = strip_rows();
+        let last = rows.end.min(height);
+        for j in rows.start >> b..last.div_ceil(cell).min(self.mesh_columns(height) - 1) {
+            let mut bounds = [(i64::MAX, i64::MIN); MESH_CELL];
+            for (first, n) in self.strips(width) {
+                self.mesh_row(j, first, &mut top[..n]);
+                self.mesh_row(j + 1, first, &mut bottom[..n]);
+                for (fv, bound) in bounds[..cell].iter_mut().enumerate() {
+                    interpolate_rows(b, &top[..n], &bottom[..n], fv, &mut row[..n]);
+                    self.node_row_bounds(&row[..n], height, bound);
+                }
+            }
+            for (fv, &(lo, hi)) in bounds[..cell].iter().enumerate() {
+                let v = (j << b) + fv;
+                if lo <= hi && v >= rows.start && v < last {
+                    most = most.max((hi - lo + 1) as usize);
+                }
+            }
+        }
+        most
+    }
+
+    /// The strips of a frame `width` wide: `(first node, elements of the strip's node rows)`,
+    /// each at most [`STRIP_CELLS`] cells (its nodes overlap the next strip's by one).
+    fn strips(&self, width: usize) -> impl Iterator<Item = (usize, usize)> {
+        let cells = self.mesh_columns(width) - 1;
+        (0..cells)
+            .step_by(STRIP_CELLS)
+            .map(move |first| (first, 2 * ((cells - first).min(STRIP_CELLS) + 1)))
+    }
+
+    /// [`LensDistortion::correct_row`] with each pixel's position from
+    /// [`LensDistortion::mesh_position`] (its cell's nodes evaluated for it): the same output,
+    /// for the reference engine, which keeps no node rows.
+    pub(crate) fn correct_row_by_pixel<'r, T: Sample>(
         &self,
         v: usize,
         width: usize,
         height: usize,
-        row: impl Fn(usize) -> &'r [T],
+        source: impl Fn(usize) -> &'r [T],
         out: &mut [T],
     ) {
-        let (w, h) = (width as i64, height as i64);
         for (u, px) in out.chunks_exact_mut(3).enumerate().take(width) {
-            let Some([qx, qy]) = self.source_position(u, v) else {
-                px.fill(T::default());
-                continue;
-            };
-            let (x0, y0) = (qx >> SUBPIXEL_BITS, qy >> SUBPIXEL_BITS);
-            // Both columns off the frame: black, and no row is read (as in `source_rows`).
-            if x0 + 1 < 0 || i64::from(x0) >= w {
-                px.fill(T::default());
-                continue;
-            }
-            let (ax, ay) = (qx & FRACTION_MASK, qy & FRACTION_MASK);
             let mut acc = [T::Acc::default(); 3];
-            for (yi, wy) in [(y0, SUBPIXELS - ay), (y0 + 1, ay)] {
-                if yi < 0 || i64::from(yi) >= h {
-                    continue;
-                }
-                let src = row(yi as usize);
-                for (xi, wx) in [(x0, SUBPIXELS - ax), (x0 + 1, ax)] {
-                    if xi < 0 || i64::from(xi) >= w {
-                        continue;
-                    }
-                    let i = 3 * xi as usize;
-                    for c in 0..3 {
-                        acc[c] = acc[c] + src[i + c].weighted(wx * wy);
-                    }
+            for (xi, yi, weight) in self
+                .mesh_position(u, v)
+                .map_or([None; 4], |q| taps(q, width, height))
+                .into_iter()
+                .flatten()
+            {
+                let src = &source(yi)[3 * xi..3 * xi + 3];
+                for c in 0..3 {
+                    acc[c] = acc[c] + src[c].weighted(weight);
                 }
             }
             for c in 0..3 {
@@ -241,11 +427,113 @@ impl LensDistortion {
                 allowed: "the input's width and height",
             });
         }
-        for v in 0..h {
-            // Rows of a checked view below its height always exist; an empty slice is never read.
-            let row = |y: usize| src.row(y).unwrap_or(&[]);
-            self.correct_row(v, w, h, row, dst.row_mut(v));
+        let b = self.cell_bits;
+        let (mut top, mut bottom, mut row) = strip_rows();
+        for (first, n) in self.strips(w) {
+            // The strip's columns: its cells, clipped to the frame.
+            let u0 = (first << b).min(w);
+            let u1 = ((first + n / 2 - 1) << b).min(w);
+            for v in 0..h {
+                if v == 0 || v & ((1 << b) - 1) == 0 {
+                    self.mesh_row(v >> b, first, &mut top[..n]);
+                    self.mesh_row((v >> b) + 1, first, &mut bottom[..n]);
+                }
+                interpolate_rows(b, &top[..n], &bottom[..n], v, &mut row[..n]);
+                let out = &mut dst.row_mut(v)[3 * u0..3 * u1];
+                for (k, px) in out.chunks_exact_mut(3).enumerate() {
+                    let position = row_position(b, &row[2 * (k >> b)..n], k & ((1 << b) - 1));
+                    let mut acc = [T::Acc::default(); 3];
+                    for (xi, yi, weight) in position
+                        .map_or([None; 4], |q| taps(q, w, h))
+                        .into_iter()
+                        .flatten()
+                    {
+                        // Rows of a checked view below its height always exist, and taps lie
+                        // within the frame.
+                        let src = src.row(yi).unwrap_or(&[]);
+                        for (c, acc) in acc.iter_mut().enumerate() {
+                            let sample = src.get(3 * xi + c).copied().unwrap_or_default();
+                            *acc = *acc + sample.weighted(weight);
+                        }
+                    }
+                    for c in 0..3 {
+                        px[c] = T::scaled_down(acc[c], WEIGHT_BITS);
+                    }
+                }
+            }
         }
         Ok(())
     }
+}
+
+/// Three node rows of one strip on the stack: the rows above and below a cell row, and the
+/// row interpolated between them.
+fn strip_rows() -> (
+    [i32; 2 * (STRIP_CELLS + 1)],
+    [i32; 2 * (STRIP_CELLS + 1)],
+    [i32; 2 * (STRIP_CELLS + 1)],
+) {
+    (
+        [0; 2 * (STRIP_CELLS + 1)],
+        [0; 2 * (STRIP_CELLS + 1)],
+        [0; 2 * (STRIP_CELLS + 1)],
+    )
+}
+
+/// `row[k] = (c - fv) top[k] + fv bottom[k]` for output row `v` (`c = 2^bits` the cell's side,
+/// `fv = v mod c`): the mesh interpolated down to the row, in `1 / (256 c)` pixel (below
+/// 2^30), [`NO_NODE`] where either node is.
+pub(crate) fn interpolate_rows(bits: u32, top: &[i32], bottom: &[i32], v: usize, row: &mut [i32]) {
+    let c = 1i32 << bits;
+    let fv = (v & ((1 << bits) - 1)) as i32;
+    for ((r, &a), &b) in row.iter_mut().zip(top).zip(bottom) {
+        *r = if a == NO_NODE || b == NO_NODE {
+            NO_NODE
+        } else {
+            // |a|, |b| < 2^26 and c <= 16, so this stays below 2^30.
+            (c - fv) * a + fv * b
+        };
+    }
+}
+
+/// A position in `1 / (256 c^2)` pixel (`c = 2^bits`) rounded to 1/32 (half up).
+#[inline(always)]
+fn round_row(bits: u32, s: i64) -> i32 {
+    let shift = 2 * bits + NODE_BITS - SUBPIXEL_BITS;
+    ((s + (1 << (shift - 1))) >> shift) as i32
+}
+
+/// The position in 1/32 pixel of the pixel `fu` columns into the cell whose left node is the
+/// first of `row` (interpolated nodes, two elements a node; cells of `2^bits`), or `None`
+/// where one of the cell's nodes is unusable.
+#[inline(always)]
+pub(crate) fn row_position(bits: u32, row: &[i32], fu: usize) -> Option<[i32; 2]> {
+    let [ax, ay, bx, by] = [*row.first()?, *row.get(1)?, *row.get(2)?, *row.get(3)?];
+    if ax == NO_NODE || bx == NO_NODE {
+        return None;
+    }
+    let (c, fu) = (1i64 << bits, fu as i64);
+    let along = |a: i32, b: i32| round_row(bits, (c - fu) * i64::from(a) + fu * i64::from(b));
+    Some([along(ax, bx), along(ay, by)])
+}
+
+/// The four taps of a source position `q` (1/32 pixel) in a `width` x `height` frame: column,
+/// row and integer weight (the four sum to 1024), `None` for a tap off the frame (black). Both
+/// columns off the frame read nothing.
+#[inline(always)]
+pub(crate) fn taps(q: [i32; 2], width: usize, height: usize) -> [Option<(usize, usize, i32)>; 4] {
+    let [qx, qy] = q;
+    let (x0, y0) = (qx >> SUBPIXEL_BITS, qy >> SUBPIXEL_BITS);
+    let (ax, ay) = (qx & FRACTION_MASK, qy & FRACTION_MASK);
+    let (w, h) = (width as i64, height as i64);
+    let tap = |x: i32, y: i32, weight: i32| {
+        let inside = x >= 0 && i64::from(x) < w && y >= 0 && i64::from(y) < h;
+        inside.then_some((x as usize, y as usize, weight))
+    };
+    [
+        tap(x0, y0, (SUBPIXELS - ax) * (SUBPIXELS - ay)),
+        tap(x0 + 1, y0, ax * (SUBPIXELS - ay)),
+        tap(x0, y0 + 1, (SUBPIXELS - ax) * ay),
+        tap(x0 + 1, y0 + 1, ax * ay),
+    ]
 }

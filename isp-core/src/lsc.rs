@@ -42,7 +42,7 @@ pub struct LensShading<'a> {
 /// Integer split of `i * (nodes - 1) / (n - 1)`: node index (at most `nodes - 2`) and
 /// remainder over `n - 1`, and the divisor.
 #[inline]
-fn split(i: usize, n: usize, nodes: usize) -> (usize, u32, u32) {
+pub(crate) fn split(i: usize, n: usize, nodes: usize) -> (usize, u32, u32) {
     if n <= 1 {
         return (0, 0, 1);
     }
@@ -102,7 +102,7 @@ impl<'a> LensShading<'a> {
     }
 
     #[inline]
-    fn node(&self, gx: usize, gy: usize, position: usize) -> u16 {
+    pub(crate) fn node(&self, gx: usize, gy: usize, position: usize) -> u16 {
         self.gains[(gy * self.grid_w + gx) * 4 + position]
     }
 

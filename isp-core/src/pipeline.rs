@@ -173,8 +173,9 @@ const MOSAIC_ROWS: usize = 5;
 const RGB_ROWS: usize = 3;
 /// Rows of encoded RGB the sharpening ring holds (its window).
 const SHARPEN_ROWS: usize = 3;
-/// `u16` scratch elements per `u64` of the fixed path's noise-reduction work.
-const FIXED_WORK_RATIO: usize = 4;
+/// `u16` scratch elements per `u32` of the fixed path's noise-reduction work (its sums take
+/// twice as many).
+const FIXED_WORK_RATIO: usize = 2;
 /// Largest sharpening amount.
 pub const MAX_SHARPEN: f32 = 4.0;
 /// Split rows the chroma stage keeps: its vertical window, the row being split and the
@@ -207,6 +208,9 @@ pub struct IspConfig<'a> {
     /// `[0, 4]`, 0 off, 1 the default ([`crate::denoise`]). Needs [`IspConfig::noise`], a
     /// mosaic input of even width and height.
     pub denoise: f32,
+    /// Noise reduction's search window: [`denoise::Search::Wide`] (5x5 packed pixels, the
+    /// default) or [`denoise::Search::Fast`] (3x3, for firmware and video).
+    pub denoise_search: denoise::Search,
     /// The raw's noise profile, which drives noise reduction.
     pub noise: Option<NoiseProfile>,
     /// Highlight knee, `[0, 1]`: a demosaiced pixel whose largest channel, or largest 3x3
@@ -238,6 +242,7 @@ impl Default for IspConfig<'_> {
             demosaic: Method::Bilinear,
             distortion: None,
             denoise: 0.0,
+            denoise_search: denoise::Search::Wide,
             noise: None,
             highlight_knee: 1.0,
             ccm: IDENTITY,
@@ -295,17 +300,21 @@ impl IspConfig<'_> {
 
     /// Scratch elements either path needs for a `width` x `height` frame with this
     /// configuration (the larger of [`FloatPipeline::scratch_len`] and
-    /// [`FixedPipeline::scratch_len`]): [`scratch_len`] for the streaming methods without
-    /// distortion correction, plus the directional method's ring buffers with it, plus `9 *
-    /// width` with sharpening (or `75 * width + 1` with chroma noise reduction), plus `3 *
-    /// window * width` with distortion correction (see the
-    /// module docs). With distortion on,
-    /// this evaluates the lens model at every pixel once.
+    /// [`FixedPipeline::scratch_len`]; see the module docs for what it holds). With
+    /// distortion on, this evaluates the lens model at every mesh node twice.
     pub fn scratch_len(&self, width: usize, height: usize) -> Option<usize> {
-        let denoise = (self.denoise > 0.0).then_some(FIXED_WORK_RATIO);
-        let detail = Detail::of(self.sharpen > 0.0, self.chroma_denoise > 0.0);
-        let extra = extra_len::<Fixed<u16>, i32>(self.demosaic, detail, denoise, width)?;
-        engine_scratch_len(self.active_distortion(), extra, width, height)
+        let shape = config_shape(
+            self.demosaic,
+            (self.denoise > 0.0 && self.noise.is_some()).then_some(self.denoise_search),
+            self.lsc.is_some(),
+            self.active_distortion(),
+            Detail::of(self.sharpen > 0.0, self.chroma_denoise > 0.0),
+            width,
+            height,
+        );
+        let float = shape.scratch_len::<f32, f32, f32, f32, f32, f32>()?;
+        let fixed = shape.scratch_len::<u16, i32, u32, u64, u32, i32>()?;
+        Some(float.max(fixed))
     }
 }
 
@@ -353,7 +362,7 @@ impl Detail {
 fn extra_len<A: Arithmetic, C>(
     method: Method,
     detail: Detail,
-    denoise: Option<usize>,
+    denoise: Option<(denoise::Search, usize)>,
     width: usize,
 ) -> Option<usize> {
     directional_len::<A>(method, width)?
@@ -361,21 +370,22 @@ fn extra_len<A: Arithmetic, C>(
         .checked_add(denoise_len(denoise, width)?)
 }
 
-/// Elements of a path's scratch for noise reduction when it is on (`work_ratio` scratch
-/// elements per work element): the ring of packed rows, the filtered pair of mosaic rows,
-/// the filter's output planes and its work (plus alignment).
-fn denoise_len(work_ratio: Option<usize>, width: usize) -> Option<usize> {
-    let Some(ratio) = work_ratio else {
+/// Elements of a path's scratch for noise reduction when it is on (with its search and
+/// `work_ratio` scratch elements per work element): the stream's samples, the filtered pair
+/// of mosaic rows, the filter's output planes and the stream's work (plus alignment).
+fn denoise_len(denoise: Option<(denoise::Search, usize)>, width: usize) -> Option<usize> {
+    let Some((search, ratio)) = denoise else {
         return Some(0);
     };
     let packed = width / 2;
-    let ring = denoise::packed_row_len(packed)?.checked_mul(denoise::PACKED_ROWS)?;
-    let work = denoise::work_len(packed)?
-        .checked_mul(ratio)?
-        .checked_add(ratio - 1)?;
-    ring.checked_add(width.checked_mul(2)?)?
+    let (samples, work, sums) = denoise::scratch_len(search, packed)?;
+    let work = work.checked_mul(ratio)?.checked_add(ratio - 1)?;
+    let sums = sums.checked_mul(2 * ratio)?.checked_add(2 * ratio - 1)?;
+    samples
+        .checked_add(width.checked_mul(2)?)?
         .checked_add(packed.checked_mul(4)?)?
-        .checked_add(work)
+        .checked_add(work)?
+        .checked_add(sums)
 }
 
 /// Elements of a path's scratch (of type `A::T`) that hold the directional method's ring
@@ -399,7 +409,7 @@ fn engine_scratch_len(
     width: usize,
     height: usize,
 ) -> Option<usize> {
-    let base = scratch_len(width)?.checked_add(extra)?;
+    let base = engine_base(width)?.checked_add(extra)?;
     match distortion {
         None => Some(base),
         Some(d) => d
@@ -411,10 +421,19 @@ fn engine_scratch_len(
 }
 
 /// Scratch elements (`f32` for the float path, `u16` for the fixed path) either path needs for
-/// a frame `width` pixels wide with a streaming method (nearest, bilinear, MHC) and without
-/// distortion correction: `14 * width`. For the directional method or distortion correction,
-/// see [`IspConfig::scratch_len`].
+/// a frame `width` pixels wide with the plainest stages (defect correction, levels, gains,
+/// nearest, bilinear or MHC, highlights, colour matrix, 8-bit or 16-bit output): `16 * width
+/// + 20` (five prepared rows, a row of planes, and the row function's rows for nearest and
+/// small frames). For the other stages see [`IspConfig::scratch_len`].
 pub const fn scratch_len(width: usize) -> Option<usize> {
+    match width.checked_mul(16) {
+        Some(v) => v.checked_add(20),
+        None => None,
+    }
+}
+
+/// The general engine's base scratch: five mosaic rows and three of RGB.
+const fn engine_base(width: usize) -> Option<usize> {
     width.checked_mul(MOSAIC_ROWS + 3 * RGB_ROWS)
 }
 
@@ -538,30 +557,18 @@ trait Path {
     fn dpc(&self) -> &DpcConfig<'_>;
     /// Distortion correction, if on.
     fn distortion(&self) -> Option<&LensDistortion>;
-    /// Noise reduction's parameters (for a raw of one pattern) and work type.
-    type NrParams;
-    type NrWork: Copy + 'static;
-    /// Noise reduction's parameters for a raw of `pattern`, when it is on.
-    fn nr_params(&self, pattern: CfaPattern) -> Result<Option<Self::NrParams>, IspError>;
+    /// Noise reduction's arithmetic (for a raw of one pattern), work and sums' types.
+    type Nlm<'a>: denoise::Nlm<S = Self::P, W = Self::NrWork, A = Self::NrSum>
+    where
+        Self: 'a;
+    type NrWork: Copy + Default + 'static;
+    type NrSum: Copy + Default + bytemuck::Pod + 'static;
+    /// Noise reduction's arithmetic for a raw of `pattern` and its search, when it is on.
+    fn nlm(&self, pattern: CfaPattern) -> Option<(Self::Nlm<'_>, denoise::Search)>;
     /// Noise reduction's work in a part of this path's scratch.
     fn nr_work(part: &mut [Self::P]) -> &mut [Self::NrWork];
-    /// One packed row's inverse variances ([`denoise::inverse_variance_row_f32`] or
-    /// [`denoise::inverse_variance_row_u16`]).
-    fn nr_inverse_variance(
-        params: &Self::NrParams,
-        rows: [&[Self::P]; 3],
-        packed_width: usize,
-        out: &mut [Self::NrWork],
-    ) -> Result<(), IspError>;
-    /// Filters one packed row ([`denoise::filter_row_f32`] or [`denoise::filter_row_u16`]).
-    fn nr_filter(
-        params: &Self::NrParams,
-        rows: [&[Self::P]; denoise::PACKED_ROWS],
-        iv: [&[Self::NrWork]; 3],
-        packed_width: usize,
-        work: &mut [Self::NrWork],
-        out: &mut [Self::P],
-    ) -> Result<(), IspError>;
+    /// Noise reduction's sums in a part of this path's scratch.
+    fn nr_sums(part: &mut [Self::P]) -> &mut [Self::NrSum];
     /// Black-level subtraction alone, for noise reduction: pixels `x0..x0 + out.len()` of
     /// row `y` as fractions of white above black, clamped to `[0, 1]`.
     fn normalise_span(
@@ -595,8 +602,6 @@ trait Path {
     fn highlights(&self, rgb: [Self::P; 3], brightest: Self::P) -> [Self::P; 3];
     /// CCM, tone and encoding of a row of linear RGB into `out` (a row of the output).
     fn finish_row<O: OutputSample>(&self, row: &[Self::P], out: &mut [O]);
-    /// Whether the sharpening stage is on.
-    fn sharpen_on(&self) -> bool;
     /// As [`Path::finish_row`] up to the encoding, into `out` in this path's encoded domain
     /// (`f32` in `[0, 1]`, 16-bit codes), for the sharpening stage.
     fn encoded_row(&self, row: &[Self::P], out: &mut [Self::P]);
@@ -670,6 +675,8 @@ pub struct FloatPipeline<'a> {
     codes8: EncodeThresholds8,
     /// Chroma noise reduction's parameters, when it is on.
     chroma: Option<chroma::FloatParams>,
+    /// Noise reduction's parameters, when it is on.
+    denoise: Option<denoise::FloatParams>,
 }
 
 impl<'a> FloatPipeline<'a> {
@@ -680,6 +687,14 @@ impl<'a> FloatPipeline<'a> {
             config: *config,
             codes8: EncodeThresholds8::new(),
             chroma: chroma::FloatParams::new(config.chroma_denoise)?,
+            denoise: match (&config.noise, config.denoise > 0.0) {
+                (Some(profile), true) => Some(denoise::FloatParams::new(
+                    profile,
+                    config.denoise,
+                    config.denoise_search,
+                )?),
+                _ => None,
+            },
         })
     }
 
@@ -687,7 +702,22 @@ impl<'a> FloatPipeline<'a> {
     /// [`IspConfig::scratch_len`]).
     pub fn scratch_len(&self, width: usize, height: usize) -> Option<usize> {
         let c = &self.config;
-        let denoise = (c.denoise > 0.0).then_some(1);
+        scratch_for::<Self>(&config_shape(
+            c.demosaic,
+            self.denoise.map(|_| c.denoise_search),
+            c.lsc.is_some(),
+            c.active_distortion(),
+            self.detail_stages(),
+            width,
+            height,
+        ))
+    }
+
+    /// Scratch elements [`FloatPipeline::run_input_general`] needs (the reference engine).
+    #[doc(hidden)]
+    pub fn general_scratch_len(&self, width: usize, height: usize) -> Option<usize> {
+        let c = &self.config;
+        let denoise = (c.denoise > 0.0).then_some((c.denoise_search, 1));
         let detail = Detail::of(c.sharpen > 0.0, c.chroma_denoise > 0.0);
         let extra = extra_len::<Float<f32>, f32>(c.demosaic, detail, denoise, width)?;
         engine_scratch_len(c.active_distortion(), extra, width, height)
@@ -724,21 +754,13 @@ impl<'a> FloatPipeline<'a> {
         scratch: &mut [f32],
         out: &mut RgbViewMut<'_, O>,
     ) -> Result<(), IspError> {
-        run_planar_or_engine(
-            self,
-            input,
-            rows,
-            scratch,
-            out,
-            planar::run_directional_general,
-            planar::encode_row,
-        )
+        planar::run_general(self, input, rows, scratch, out)
     }
 
     /// As [`FloatPipeline::run_input`], compiled for AVX2 and FMA: the same output, faster
-    /// where the configuration takes the planar schedule (see the module docs), whose loops
-    /// then run eight lanes wide, and whose 8-bit encoding evaluates the curve eight samples
-    /// at a time (`srgb::avx2`; FMA only there, so every other result is the same).
+    /// (the schedule's loops run eight lanes wide, and the 8-bit encoding evaluates the curve
+    /// eight samples at a time, `srgb::avx2`; FMA only there, so every other result is the
+    /// same).
     ///
     /// # Safety
     ///
@@ -754,21 +776,11 @@ impl<'a> FloatPipeline<'a> {
         scratch: &mut [f32],
         out: &mut RgbViewMut<'_, O>,
     ) -> Result<(), IspError> {
-        run_planar_or_engine(
-            self,
-            input,
-            rows,
-            scratch,
-            out,
-            |p, r, y, s, o| planar::run_directional_avx2(p, r, y, s, o),
-            |p, planes, h, o| planar::encode_row_avx2(p, planes, h, o),
-        )
+        planar::run_avx2(self, input, rows, scratch, out)
     }
 
     /// As [`FloatPipeline::run_input`], compiled for AVX-512 (F, BW, VL and DQ): the same
-    /// output; the directional method in the planar schedule runs sixteen lanes wide (about
-    /// 12 % faster than with AVX2); other configurations run as with
-    /// [`FloatPipeline::run_input_avx2`].
+    /// output, the schedule's loops sixteen lanes wide.
     ///
     /// # Safety
     ///
@@ -783,22 +795,12 @@ impl<'a> FloatPipeline<'a> {
         scratch: &mut [f32],
         out: &mut RgbViewMut<'_, O>,
     ) -> Result<(), IspError> {
-        if self.method() != Method::Directional {
-            return self.run_input_avx2(input, rows, scratch, out);
-        }
-        run_planar_or_engine(
-            self,
-            input,
-            rows,
-            scratch,
-            out,
-            |p, r, y, s, o| planar::run_directional_avx512(p, r, y, s, o),
-            planar::encode_row,
-        )
+        planar::run_avx512(self, input, rows, scratch, out)
     }
 
-    /// As [`FloatPipeline::run_input`], always on the general streaming engine, never the
-    /// planar schedule: for tests that check the schedule against the engine.
+    /// As [`FloatPipeline::run_input`] on the general streaming engine, the reference the
+    /// tests check the schedule against (with [`FloatPipeline::general_scratch_len`]
+    /// elements of scratch); not a runtime path.
     #[doc(hidden)]
     pub fn run_input_general<O: OutputSample>(
         &self,
@@ -857,40 +859,24 @@ impl Path for FloatPipeline<'_> {
         self.config.active_distortion()
     }
 
-    type NrParams = denoise::FloatParams;
+    type Nlm<'a>
+        = denoise::FloatNlm
+    where
+        Self: 'a;
     type NrWork = f32;
+    type NrSum = f32;
 
-    fn nr_params(&self, pattern: CfaPattern) -> Result<Option<denoise::FloatParams>, IspError> {
-        match (&self.config.noise, self.config.denoise > 0.0) {
-            (Some(profile), true) => {
-                denoise::FloatParams::new(profile, pattern, self.config.denoise).map(Some)
-            }
-            _ => Ok(None),
-        }
+    fn nlm(&self, pattern: CfaPattern) -> Option<(denoise::FloatNlm, denoise::Search)> {
+        self.denoise
+            .map(|p| (p.for_pattern(pattern), self.config.denoise_search))
     }
 
     fn nr_work(part: &mut [f32]) -> &mut [f32] {
         part
     }
 
-    fn nr_inverse_variance(
-        params: &denoise::FloatParams,
-        rows: [&[f32]; 3],
-        packed_width: usize,
-        out: &mut [f32],
-    ) -> Result<(), IspError> {
-        denoise::inverse_variance_row_f32(rows, packed_width, params, out)
-    }
-
-    fn nr_filter(
-        params: &denoise::FloatParams,
-        rows: [&[f32]; denoise::PACKED_ROWS],
-        iv: [&[f32]; 3],
-        packed_width: usize,
-        work: &mut [f32],
-        out: &mut [f32],
-    ) -> Result<(), IspError> {
-        denoise::filter_row_f32(rows, iv, packed_width, params, work, out)
+    fn nr_sums(part: &mut [f32]) -> &mut [f32] {
+        part
     }
 
     fn normalise_span(
@@ -990,7 +976,7 @@ impl Path for FloatPipeline<'_> {
                 // The exact curve's code, found among thresholds (srgb module).
                 O::from_code(u32::from(self.codes8.code(v)))
             } else {
-                O::from_encoded(srgb::encode(v))
+                O::from_encoded(srgb::encode_estimated(v))
             }
         };
         // Every switch is decided once per row, so the loop holds only the stages that run.
@@ -1025,17 +1011,13 @@ impl Path for FloatPipeline<'_> {
         }
     }
 
-    fn sharpen_on(&self) -> bool {
-        self.config.sharpen > 0.0
-    }
-
     fn encoded_row(&self, row: &[f32], out: &mut [f32]) {
         for (px, rgb) in out.chunks_exact_mut(3).zip(row.chunks_exact(3)) {
             for (o, v) in px
                 .iter_mut()
                 .zip(self.linear_pixel([rgb[0], rgb[1], rgb[2]]))
             {
-                *o = srgb::encode(v);
+                *o = srgb::encode_estimated(v);
             }
         }
     }
@@ -1122,7 +1104,7 @@ impl FloatPipeline<'_> {
         if c.tone.saturation_is_identity() && c.tone.curve_is_identity() {
             lin
         } else {
-            c.tone.apply(lin)
+            c.tone.apply_estimated(lin)
         }
     }
 }
@@ -1137,8 +1119,8 @@ pub struct FixedPipeline<'a> {
     distortion: Option<LensDistortion>,
     gain_q16: Option<u64>,
     wb_q16: Option<[u64; 3]>,
-    /// Noise reduction's profile and strength, when it is on.
-    denoise: Option<(NoiseProfile, f32)>,
+    /// Noise reduction's parameters and search, when it is on.
+    denoise: Option<(denoise::FixedParams, denoise::Search)>,
     highlights: Option<highlights::KneeQ16>,
     ccm_q: Option<[[i32; 3]; 3]>,
     saturation_q: Option<[[i32; 3]; 3]>,
@@ -1169,10 +1151,13 @@ impl<'a> FixedPipeline<'a> {
             distortion: config.active_distortion().copied(),
             gain_q16: (config.gain != 1.0).then(|| to_q16(config.gain)),
             wb_q16: (config.wb_gains != [1.0; 3]).then(|| config.wb_gains.map(to_q16)),
-            denoise: config
-                .noise
-                .filter(|_| config.denoise > 0.0)
-                .map(|profile| (profile, config.denoise)),
+            denoise: match (&config.noise, config.denoise > 0.0) {
+                (Some(profile), true) => Some((
+                    denoise::FixedParams::new(profile, config.denoise, config.denoise_search)?,
+                    config.denoise_search,
+                )),
+                _ => None,
+            },
             highlights: (config.highlight_knee < 1.0)
                 .then(|| highlights::KneeQ16::new(config.highlight_knee)),
             ccm_q: (ccm_q != identity_q).then_some(ccm_q),
@@ -1194,7 +1179,24 @@ impl<'a> FixedPipeline<'a> {
     /// Scratch elements [`FixedPipeline::run`] needs for a `width` x `height` frame (see
     /// [`IspConfig::scratch_len`]).
     pub fn scratch_len(&self, width: usize, height: usize) -> Option<usize> {
-        let denoise = self.denoise.is_some().then_some(FIXED_WORK_RATIO);
+        scratch_for::<Self>(&config_shape(
+            self.method,
+            self.denoise.as_ref().map(|(_, search)| *search),
+            self.lsc.is_some(),
+            self.distortion.as_ref(),
+            self.detail_stages(),
+            width,
+            height,
+        ))
+    }
+
+    /// Scratch elements [`FixedPipeline::run_input_general`] needs (the reference engine).
+    #[doc(hidden)]
+    pub fn general_scratch_len(&self, width: usize, height: usize) -> Option<usize> {
+        let denoise = self
+            .denoise
+            .as_ref()
+            .map(|(_, search)| (*search, FIXED_WORK_RATIO));
         let extra =
             extra_len::<Fixed<u16>, i32>(self.method, self.detail_stages(), denoise, width)?;
         engine_scratch_len(self.distortion.as_ref(), extra, width, height)
@@ -1232,47 +1234,18 @@ impl<'a> FixedPipeline<'a> {
         scratch: &mut [u16],
         out: &mut RgbViewMut<'_, O>,
     ) -> Result<(), IspError> {
-        self.run_input_inlined(
-            input,
-            rows,
-            scratch,
-            out,
-            planar::run_directional_general,
-            planar::encode_row,
-        )
-    }
-
-    /// [`FixedPipeline::run_input`]'s body, inlined into each entry so that the AVX2 one
-    /// compiles the planar schedule for AVX2.
-    #[inline(always)]
-    fn run_input_inlined<O: OutputSample>(
-        &self,
-        input: Input<'_>,
-        rows: Range<usize>,
-        scratch: &mut [u16],
-        out: &mut RgbViewMut<'_, O>,
-        directional: impl FnOnce(
-            &Self,
-            &RawFrame<'_>,
-            Range<usize>,
-            &mut [u16],
-            &mut RgbViewMut<'_, O>,
-        ) -> Result<(), IspError>,
-        encode: impl Fn(&Self, &[u16], crate::demosaic::planar::Halves, &mut [O]),
-    ) -> Result<(), IspError> {
         self.check_output_depth::<O>()?;
-        run_planar_or_engine(self, input, rows, scratch, out, directional, encode)
+        planar::run_general(self, input, rows, scratch, out)
     }
 
     /// As [`FixedPipeline::run_input`], compiled for AVX2: the same output, faster (the
-    /// planar schedule's loops run 16 lanes wide). Needs `&self`'s configuration to take the
-    /// planar schedule (see the module docs) to gain anything.
+    /// schedule's loops run 8 to 16 lanes wide).
     ///
     /// # Safety
     ///
     /// The CPU must support AVX2 and FMA (a function with a target feature is unsafe to call
-    /// from code compiled without it; FMA for the float path's encoder, which the directional
-    /// entry shares). Check first with `is_x86_feature_detected!` for "avx2" and "fma".
+    /// from code compiled without it; FMA for the float path's encoder, which the schedule
+    /// shares). Check first with `is_x86_feature_detected!` for "avx2" and "fma".
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
     pub fn run_input_avx2<O: OutputSample>(
@@ -1282,34 +1255,13 @@ impl<'a> FixedPipeline<'a> {
         scratch: &mut [u16],
         out: &mut RgbViewMut<'_, O>,
     ) -> Result<(), IspError> {
-        self.run_input_avx2_encoding(input, rows, scratch, out, planar::encode_row)
-    }
-
-    /// [`FixedPipeline::run_input_avx2`] with `encode` as the encoding of a row (of the
-    /// methods other than directional).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn run_input_avx2_encoding<O: OutputSample>(
-        &self,
-        input: Input<'_>,
-        rows: Range<usize>,
-        scratch: &mut [u16],
-        out: &mut RgbViewMut<'_, O>,
-        encode: impl Fn(&Self, &[u16], crate::demosaic::planar::Halves, &mut [O]),
-    ) -> Result<(), IspError> {
-        self.run_input_inlined(
-            input,
-            rows,
-            scratch,
-            out,
-            |p, r, y, s, o| planar::run_directional_avx2(p, r, y, s, o),
-            encode,
-        )
+        self.check_output_depth::<O>()?;
+        planar::run_avx2(self, input, rows, scratch, out)
     }
 
     /// As [`FixedPipeline::run_input`], compiled for AVX-512 (F, BW, VL and DQ): the same
-    /// output; the directional method in the planar schedule runs sixteen lanes wide; other
-    /// configurations run as with [`FixedPipeline::run_input_avx2`].
+    /// output, the schedule's loops sixteen lanes wide, the 8-bit encoding a search in
+    /// registers (`srgb::avx512`).
     ///
     /// # Safety
     ///
@@ -1324,25 +1276,13 @@ impl<'a> FixedPipeline<'a> {
         scratch: &mut [u16],
         out: &mut RgbViewMut<'_, O>,
     ) -> Result<(), IspError> {
-        if self.method != Method::Directional {
-            // The other methods' loops as AVX2 compiles them (faster here than AVX-512's),
-            // with the AVX-512 encoder called once per row.
-            return self.run_input_avx2_encoding(input, rows, scratch, out, |p, planes, h, o| {
-                planar::encode_row_avx512(p, planes, h, o)
-            });
-        }
-        self.run_input_inlined(
-            input,
-            rows,
-            scratch,
-            out,
-            |p, r, y, s, o| planar::run_directional_avx512(p, r, y, s, o),
-            planar::encode_row,
-        )
+        self.check_output_depth::<O>()?;
+        planar::run_avx512(self, input, rows, scratch, out)
     }
 
-    /// As [`FixedPipeline::run_input`], always on the general streaming engine, never the
-    /// planar schedule: for tests that check the schedule against the engine.
+    /// As [`FixedPipeline::run_input`] on the general streaming engine, the reference the
+    /// tests check the schedule against (with [`FixedPipeline::general_scratch_len`]
+    /// elements of scratch); not a runtime path.
     #[doc(hidden)]
     pub fn run_input_general<O: OutputSample>(
         &self,
@@ -1426,41 +1366,27 @@ impl Path for FixedPipeline<'_> {
         self.distortion.as_ref()
     }
 
-    type NrParams = denoise::FixedParams;
-    type NrWork = u64;
+    type Nlm<'a>
+        = denoise::FixedNlm<'a>
+    where
+        Self: 'a;
+    type NrWork = u32;
+    type NrSum = u64;
 
-    fn nr_params(&self, pattern: CfaPattern) -> Result<Option<denoise::FixedParams>, IspError> {
-        match &self.denoise {
-            Some((profile, strength)) => {
-                denoise::FixedParams::new(profile, pattern, *strength).map(Some)
-            }
-            None => Ok(None),
-        }
+    fn nlm(&self, pattern: CfaPattern) -> Option<(denoise::FixedNlm<'_>, denoise::Search)> {
+        self.denoise
+            .as_ref()
+            .map(|(params, search)| (params.for_pattern(pattern), *search))
     }
 
-    fn nr_work(part: &mut [u16]) -> &mut [u64] {
-        // The part holds three elements more than the work needs, for the alignment.
+    fn nr_work(part: &mut [u16]) -> &mut [u32] {
+        // The part holds one element more than the work needs, for the alignment.
+        bytemuck::pod_align_to_mut::<u16, u32>(part).1
+    }
+
+    fn nr_sums(part: &mut [u16]) -> &mut [u64] {
+        // The part holds three elements more than the sums need, for the alignment.
         bytemuck::pod_align_to_mut::<u16, u64>(part).1
-    }
-
-    fn nr_inverse_variance(
-        params: &denoise::FixedParams,
-        rows: [&[u16]; 3],
-        packed_width: usize,
-        out: &mut [u64],
-    ) -> Result<(), IspError> {
-        denoise::inverse_variance_row_u16(rows, packed_width, params, out)
-    }
-
-    fn nr_filter(
-        params: &denoise::FixedParams,
-        rows: [&[u16]; denoise::PACKED_ROWS],
-        iv: [&[u64]; 3],
-        packed_width: usize,
-        work: &mut [u64],
-        out: &mut [u16],
-    ) -> Result<(), IspError> {
-        denoise::filter_row_u16(rows, iv, packed_width, params, work, out)
     }
 
     fn normalise_span(
@@ -1596,10 +1522,6 @@ impl Path for FixedPipeline<'_> {
                 *o = O::from_code(self.encode.lookup(v));
             }
         }
-    }
-
-    fn sharpen_on(&self) -> bool {
-        self.sharpen_q12.is_some()
     }
 
     fn encoded_row(&self, row: &[u16], out: &mut [u16]) {
@@ -1770,23 +1692,15 @@ impl RowWindow {
     }
 }
 
-/// Noise reduction's rings in one run: packed rows of the normalised mosaic, and the
-/// filtered pair of mosaic rows (after the gains) that the mosaic ring copies from.
-struct Denoiser<'s, A: Path> {
-    params: A::NrParams,
-    /// [`denoise::PACKED_ROWS`] packed rows, packed row `r` in slot `r % PACKED_ROWS`.
-    ring: &'s mut [A::P],
-    tags: [usize; denoise::PACKED_ROWS],
-    /// Mosaic rows `2 * pair_tag` and `2 * pair_tag + 1`.
+/// Noise reduction in one run: the stream, and the filtered pair of mosaic rows (after the
+/// gains) that the mosaic ring copies from.
+struct Denoiser<'s, 'p, A: Path + 'p> {
+    stream: denoise::Stream<'s, A::Nlm<'p>>,
+    /// Mosaic rows `2 * pair_tag` and `2 * pair_tag + 1` (and the packing's temporary).
     pair: &'s mut [A::P],
     pair_tag: usize,
     /// The filter's four output planes.
     filtered: &'s mut [A::P],
-    /// Inverse variances of three packed rows, packed row `r` in slot `r % 3` (a row's serve
-    /// wherever it is reflected to, so each is computed once).
-    iv_ring: &'s mut [A::NrWork],
-    iv_tags: [usize; 3],
-    work: &'s mut [A::NrWork],
 }
 
 /// The ring buffers of one run and how to fill them.
@@ -1800,7 +1714,7 @@ struct Engine<'s, 'p, A: Path> {
     /// The directional method, when it runs (it keeps its own rows).
     directional: Option<Stream<'s, A::Directional>>,
     /// Noise reduction, when it is on.
-    denoiser: Option<Denoiser<'s, A>>,
+    denoiser: Option<Denoiser<'s, 'p, A>>,
     /// Demosaiced RGB, `demosaic_slots` rows.
     demosaic_ring: &'s mut [A::P],
     demosaic_slots: usize,
@@ -1815,7 +1729,7 @@ struct Engine<'s, 'p, A: Path> {
     provided: usize,
 }
 
-impl<A: Path> Engine<'_, '_, A> {
+impl<'p, A: Path> Engine<'_, 'p, A> {
     /// Makes demosaiced rows `lo..=hi` held.
     fn demosaic_rows(&mut self, lo: usize, hi: usize) -> Result<(), IspError> {
         let (w, h) = (self.input.width(), self.input.height());
@@ -1868,7 +1782,7 @@ impl<A: Path> Engine<'_, '_, A> {
                     &ring[slot * 3 * w..(slot + 1) * 3 * w]
                 };
                 let dst = &mut self.corrected_ring[slot * 3 * w..(slot + 1) * 3 * w];
-                lens.correct_row(v, w, h, row, dst);
+                lens.correct_row_by_pixel(v, w, h, row, dst);
             }
         }
         let slot = y % RGB_ROWS;
@@ -1893,8 +1807,8 @@ impl<A: Path> Engine<'_, '_, A> {
     /// Row `my` of the raw frame through defect correction and the pointwise stages (and
     /// noise reduction, when it is on), into `dst`.
     fn prepare_row(
-        path: &A,
-        denoiser: &mut Option<Denoiser<'_, A>>,
+        path: &'p A,
+        denoiser: &mut Option<Denoiser<'_, 'p, A>>,
         raw: &RawFrame<'_>,
         my: usize,
         dst: &mut [A::P],
@@ -1905,58 +1819,44 @@ impl<A: Path> Engine<'_, '_, A> {
             });
             return Ok(());
         };
-        let mosaic = raw.mosaic();
-        let (w, h) = (mosaic.width(), mosaic.height());
-        let (wp, hp) = (w / 2, h / 2);
+        let w = raw.mosaic().width();
+        let wp = w / 2;
         let j = my / 2;
         if nr.pair_tag != j {
-            // The pair's rows are the packing's temporary until the filter writes them.
             nr.pair_tag = usize::MAX;
-            let len = nr.ring.len() / denoise::PACKED_ROWS;
-            let packed = |t: usize| reflect(j as isize + t as isize - denoise::PAD as isize, hp);
-            for t in 0..denoise::PACKED_ROWS {
-                let r = packed(t);
-                let slot = r % denoise::PACKED_ROWS;
-                if nr.tags[slot] == r {
-                    continue;
-                }
-                let (top, bottom) = nr.pair.split_at_mut(w);
-                for (py, row) in [top, bottom].into_iter().enumerate() {
-                    Self::corrected_row(raw, path.dpc(), 2 * r + py, row, |x0, y, dpc, out| {
-                        path.normalise_span(raw, y, x0, dpc, out)
-                    });
-                }
-                let (top, bottom) = nr.pair.split_at(w);
-                denoise::pack_row(
-                    [top, bottom],
-                    wp,
-                    &mut nr.ring[slot * len..(slot + 1) * len],
-                )?;
-                nr.tags[slot] = r;
-            }
-            let ring: &[A::P] = nr.ring;
-            let ring_row = |r: usize| {
-                let slot = r % denoise::PACKED_ROWS;
-                &ring[slot * len..(slot + 1) * len]
-            };
-            let iv_len = nr.iv_ring.len() / 3;
-            for t in 0..3 {
-                let r = reflect(j as isize + t as isize - 1, hp);
-                if nr.iv_tags[r % 3] != r {
-                    // Rows r - 1 ..= r + 1 are among the ring's j - 3 ..= j + 3.
-                    let rows = [-1isize, 0, 1].map(|d| ring_row(reflect(r as isize + d, hp)));
-                    let dst = &mut nr.iv_ring[(r % 3) * iv_len..(r % 3 + 1) * iv_len];
-                    A::nr_inverse_variance(&nr.params, rows, wp, dst)?;
-                    nr.iv_tags[r % 3] = r;
-                }
-            }
-            let iv_ring: &[A::NrWork] = nr.iv_ring;
-            let iv = [-1isize, 0, 1].map(|d| {
-                let slot = reflect(j as isize + d, hp) % 3;
-                &iv_ring[slot * iv_len..(slot + 1) * iv_len]
-            });
-            let rows = core::array::from_fn(|t| ring_row(packed(t)));
-            A::nr_filter(&nr.params, rows, iv, wp, nr.work, nr.filtered)?;
+            let Denoiser {
+                stream,
+                pair,
+                filtered,
+                ..
+            } = nr;
+            let (f01, f23) = filtered.split_at_mut(2 * wp);
+            let (f0, f1) = f01.split_at_mut(wp);
+            let (f2, f3) = f23.split_at_mut(wp);
+            stream.row(
+                j,
+                |r, planes| {
+                    // The pair holds the packed row's mosaic rows until the filter's output.
+                    let (top, bottom) = pair.split_at_mut(w);
+                    for (py, row) in [&mut *top, &mut *bottom].into_iter().enumerate() {
+                        Self::corrected_row(raw, path.dpc(), 2 * r + py, row, |x0, y, dpc, out| {
+                            path.normalise_span(raw, y, x0, dpc, out)
+                        });
+                    }
+                    let [p0, p1, p2, p3] = planes;
+                    for (k, (plane, row)) in
+                        [(p0, &*top), (p1, &*top), (p2, &*bottom), (p3, &*bottom)]
+                            .into_iter()
+                            .enumerate()
+                    {
+                        for (v, pair) in plane.iter_mut().zip(row.chunks_exact(2)) {
+                            *v = pair[k & 1];
+                        }
+                    }
+                    Ok(())
+                },
+                [f0, f1, f2, f3],
+            )?;
             for (py, row) in nr.pair.chunks_exact_mut(w).enumerate() {
                 let [left, right] =
                     [2 * py, 2 * py + 1].map(|k| &nr.filtered[k * wp..(k + 1) * wp]);
@@ -2090,61 +1990,80 @@ impl<A: Path> Engine<'_, '_, A> {
     }
 }
 
-/// The planar schedule where it takes the configuration and the frame, else the general
-/// engine; inlined into each path's entries so that the AVX2 ones compile the schedule for
-/// AVX2.
-///
-/// `directional` runs the planar schedule's directional method (out of line: see
-/// `planar::run_directional_general`); each entry passes the one compiled for its target.
-/// `encode` is the other methods' encoding of a row (`planar::encode_row`, or the AVX-512
-/// encoder, called once per row).
-#[inline(always)]
-fn run_planar_or_engine<A: planar::Planar, O: OutputSample>(
+/// The schedule's shape for a run of `path` over rows `rows` of `input`, refusing what the
+/// stages refuse: noise reduction on a linear frame or on a mosaic of odd width or height.
+fn shape<A: planar::Planar>(
     path: &A,
     input: Input<'_>,
-    rows: Range<usize>,
-    scratch: &mut [A::P],
-    out: &mut RgbViewMut<'_, O>,
-    directional: impl FnOnce(
-        &A,
-        &RawFrame<'_>,
-        Range<usize>,
-        &mut [A::P],
-        &mut RgbViewMut<'_, O>,
-    ) -> Result<(), IspError>,
-    encode: impl Fn(&A, &[A::P], crate::demosaic::planar::Halves, &mut [O]),
-) -> Result<(), IspError> {
-    match input {
-        Input::Mosaic(raw) if planar::takes::<A, O>(path, &raw) => {
-            check_rows(path, input, &rows, out)?;
-            let w = raw.mosaic().width();
-            let sharpen_part = match path.sharpen_on() {
-                true => w.checked_mul(3 * SHARPEN_ROWS),
-                false => Some(0),
-            };
-            // What the engine would ask for, which covers the schedule's own needs.
-            let needed = directional_len::<A::Directional>(path.method(), w)
-                .and_then(|part| {
-                    scratch_len(w)?
-                        .checked_add(part)?
-                        .checked_add(sharpen_part?)
+    rows: &Range<usize>,
+) -> Result<planar::Shape, IspError> {
+    let (w, h) = (input.width(), input.height());
+    let denoise = match input {
+        Input::Mosaic(raw) => path.nlm(raw.mosaic().pattern()).map(|(_, s)| s),
+        Input::Linear(_) => match path.nlm(CfaPattern::Rggb) {
+            Some(_) => {
+                return Err(IspError::InvalidParameter {
+                    name: "denoise",
+                    allowed: "0 for a linear (already demosaiced) frame",
                 })
-                .ok_or(IspError::InvalidParameter {
-                    name: "width",
-                    allowed: "a size that fits in memory",
-                })?;
-            if scratch.len() < needed {
-                return Err(IspError::BufferTooSmall {
-                    needed,
-                    provided: scratch.len(),
-                });
             }
-            match path.method() {
-                Method::Directional => directional(path, &raw, rows, scratch, out),
-                _ => planar::run(path, &raw, rows, scratch, out, encode),
-            }
-        }
-        _ => run_rows(path, input, rows, scratch, out),
+            None => None,
+        },
+    };
+    if denoise.is_some() && (!w.is_multiple_of(2) || !h.is_multiple_of(2)) {
+        return Err(IspError::InvalidParameter {
+            name: "denoise",
+            allowed: "0 for a mosaic of odd width or height (it filters whole 2x2 blocks)",
+        });
+    }
+    // The rows the finish reads around the band: the chroma stage's three either side.
+    let around = rows.start.saturating_sub(chroma::RADIUS)..(rows.end + chroma::RADIUS).min(h);
+    Ok(planar::Shape {
+        width: w,
+        height: h,
+        linear: matches!(input, Input::Linear(_)),
+        method: path.method(),
+        denoise,
+        shading: planar::Planar::lsc(path).is_some(),
+        distortion: path
+            .distortion()
+            .map(|lens| (lens.window_rows_in(w, h, around), lens.mesh_columns(w))),
+        detail: path.detail_stages(),
+    })
+}
+
+/// Scratch elements of `A`'s type the schedule needs for `shape`.
+fn scratch_for<A: planar::Planar>(shape: &planar::Shape) -> Option<usize> {
+    shape.scratch_len::<
+        A::P,
+        <A::Directional as Arithmetic>::E,
+        A::NrWork,
+        A::NrSum,
+        A::Gain,
+        A::Chroma,
+    >()
+}
+
+/// The schedule's shape for a whole `width` x `height` mosaic with a configuration's stages.
+fn config_shape(
+    method: Method,
+    denoise: Option<denoise::Search>,
+    shading: bool,
+    distortion: Option<&LensDistortion>,
+    detail: Detail,
+    width: usize,
+    height: usize,
+) -> planar::Shape {
+    planar::Shape {
+        width,
+        height,
+        linear: false,
+        method,
+        denoise,
+        shading,
+        distortion: distortion
+            .map(|lens| (lens.window_rows(width, height), lens.mesh_columns(width))),
+        detail,
     }
 }
 
@@ -2199,9 +2118,9 @@ fn run_rows<A: Path, O: OutputSample>(
     };
     let detail = path.detail_stages();
     let detail_part = detail.len::<A::P, A::Chroma>(w).ok_or(too_wide)?;
-    let nr_params = match input {
-        Input::Mosaic(raw) => path.nr_params(raw.mosaic().pattern())?,
-        Input::Linear(_) => match path.nr_params(CfaPattern::Rggb)? {
+    let nlm = match input {
+        Input::Mosaic(raw) => path.nlm(raw.mosaic().pattern()),
+        Input::Linear(_) => match path.nlm(CfaPattern::Rggb) {
             Some(_) => {
                 return Err(IspError::InvalidParameter {
                     name: "denoise",
@@ -2211,15 +2130,16 @@ fn run_rows<A: Path, O: OutputSample>(
             None => None,
         },
     };
-    if nr_params.is_some() && (!w.is_multiple_of(2) || !h.is_multiple_of(2)) {
+    if nlm.is_some() && (!w.is_multiple_of(2) || !h.is_multiple_of(2)) {
         return Err(IspError::InvalidParameter {
             name: "denoise",
             allowed: "0 for a mosaic of odd width or height (it filters whole 2x2 blocks)",
         });
     }
     let work_ratio = core::mem::size_of::<A::NrWork>() / core::mem::size_of::<A::P>();
-    let denoise_part = denoise_len(nr_params.as_ref().map(|_| work_ratio), w).ok_or(too_wide)?;
-    let base = scratch_len(w)
+    let denoise_part =
+        denoise_len(nlm.as_ref().map(|(_, s)| (*s, work_ratio)), w).ok_or(too_wide)?;
+    let base = engine_base(w)
         .and_then(|b| {
             b.checked_add(directional_part)?
                 .checked_add(detail_part)?
@@ -2241,24 +2161,21 @@ fn run_rows<A: Path, O: OutputSample>(
     let (planes, rest) = rest.split_at_mut(directional_part);
     let (detail_ring, rest) = rest.split_at_mut(detail_part);
     let (denoise_scratch, rest) = rest.split_at_mut(denoise_part);
-    let denoiser = match nr_params {
-        Some(params) => {
-            let packed = denoise::packed_row_len(w / 2).ok_or(too_wide)?;
-            let (ring, more) = denoise_scratch.split_at_mut(denoise::PACKED_ROWS * packed);
+    let denoiser = match nlm {
+        Some((nlm, search)) => {
+            let (samples, work, _) = denoise::scratch_len(search, w / 2).ok_or(too_wide)?;
+            let (samples, more) = denoise_scratch.split_at_mut(samples);
             let (pair, more) = more.split_at_mut(2 * w);
             let (filtered, more) = more.split_at_mut(2 * w);
-            let iv_len = denoise::iv_row_len(w / 2).ok_or(too_wide)?;
-            let (iv_ring, work) = A::nr_work(more).split_at_mut(3 * iv_len);
+            let ratio = core::mem::size_of::<A::NrWork>().div_ceil(core::mem::size_of::<A::P>());
+            let (work_part, sums_part) = more.split_at_mut(work * ratio + ratio - 1);
+            let work = A::nr_work(work_part);
+            let sums = A::nr_sums(sums_part);
             Some(Denoiser {
-                params,
-                ring,
-                tags: [usize::MAX; denoise::PACKED_ROWS],
+                stream: denoise::Stream::new(nlm, search, w / 2, h / 2, samples, work, sums)?,
                 pair,
                 pair_tag: usize::MAX,
                 filtered,
-                iv_ring,
-                iv_tags: [usize::MAX; 3],
-                work,
             })
         }
         None => None,

@@ -100,6 +100,23 @@ pub fn encode(linear: f32) -> f32 {
     }
 }
 
+/// [`encode`] with its power estimated in `f32` arithmetic alone ([`crate::math`]'s
+/// `2^(k log2 x)` by short series), so that a loop of it vectorises: the float pipeline's
+/// encoding wherever it needs the continuous value (16-bit and `f32` output, sharpening,
+/// chroma noise reduction), in place of a `powf` per sample. Within 2.5e-7 of the exact curve
+/// (1.9e-7 the largest a test finds sweeping `[0, 1]`), a sixtieth of a 16-bit code.
+#[inline(always)]
+pub fn encode_estimated(linear: f32) -> f32 {
+    let x = clamp_unit(linear);
+    let power = math::pow_estimate(x, 1.0 / 2.4).0;
+    let curved = clamp_unit(1.055 * power - 0.055);
+    if x <= LINEAR_THRESHOLD {
+        12.92 * x
+    } else {
+        curved
+    }
+}
+
 /// The sRGB signal in `[0, 1]` to linear light in `[0, 1]`.
 pub fn decode(encoded: f32) -> f32 {
     let v = clamp_unit(encoded);
@@ -361,7 +378,7 @@ impl EncodeThresholds8 {
 
 #[cfg(test)]
 mod tests {
-    use super::{tables, EncodeLut};
+    use super::{encode_estimated, tables, EncodeLut, LINEAR_THRESHOLD};
 
     /// The build script's static tables are the curve's: every entry evaluated again here.
     #[test]
@@ -392,6 +409,31 @@ mod tests {
 
     /// The branch-free 16-bit lookup the planar sharpening stage uses is the table's own
     /// lookup at every input.
+    #[test]
+    fn estimated_encoding_is_within_its_bound() {
+        // Every 16th float of [0, 1] and every float of the top octave's last 2^16 steps.
+        let exact = |x: f32| {
+            let x = f64::from(x);
+            if x <= f64::from(LINEAR_THRESHOLD) {
+                12.92 * x
+            } else {
+                1.055 * x.powf(1.0 / 2.4) - 0.055
+            }
+        };
+        let mut worst = 0.0f64;
+        let top = 1.0f32.to_bits();
+        for bits in (0..=top).step_by(16).chain(top - 65536..=top) {
+            let x = f32::from_bits(bits);
+            let e = (f64::from(encode_estimated(x)) - exact(x)).abs();
+            worst = worst.max(e);
+        }
+        assert!(worst <= 2.5e-7, "largest error {worst:e}");
+        assert!(worst > 1e-8, "the test sees no error at all");
+        assert_eq!(encode_estimated(-1.0), 0.0);
+        assert_eq!(encode_estimated(f32::NAN), 0.0);
+        assert!(encode_estimated(2.0) <= 1.0);
+    }
+
     #[test]
     fn lookup16_is_the_16_bit_lookup_at_every_input() {
         let lut = EncodeLut::new(16).unwrap();

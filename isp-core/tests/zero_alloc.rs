@@ -56,10 +56,12 @@ fn full_pipeline_run_allocates_nothing() {
         23.5,
         BrownConrady::from_opencv([-0.2, 0.03, 0.001, 0.0, 0.0]).unwrap(),
     )
-    .unwrap();
+    .unwrap()
+    .fitted(w, h);
     // The scratch is sized before counting starts, for the configuration run below.
     let with_lens = IspConfig {
         distortion: Some(lens),
+        lsc: Some(LensShading::new(5, 4, &gains).unwrap()),
         sharpen: 0.5,
         chroma_denoise: 1.0,
         denoise: 1.0,
@@ -95,6 +97,7 @@ fn full_pipeline_run_allocates_nothing() {
         demosaic: Method::Mhc,
         distortion: Some(lens),
         denoise: 1.0,
+        denoise_search: Default::default(),
         noise: Some(NoiseProfile::uniform(0.0032, 1.5e-5).unwrap()),
         highlight_knee: 0.9,
         ccm: [[1.5, -0.3, -0.2], [-0.2, 1.4, -0.2], [0.0, -0.4, 1.4]],

@@ -18,6 +18,12 @@
 // The directional (high-quality) demosaicing.
 #define CAMSIM_DEMOSAIC_DIRECTIONAL 3
 
+// Noise reduction's default search: 5x5 packed pixels (10x10 mosaic pixels), for stills.
+#define CAMSIM_DENOISE_WIDE 0
+
+// Noise reduction's fast search: 3x3 packed pixels, for firmware and video.
+#define CAMSIM_DENOISE_FAST 1
+
 // Colour filter layout R G / G B.
 #define CAMSIM_CFA_RGGB 0
 
@@ -75,6 +81,9 @@ typedef struct CamsimIspConfig {
   float highlight_knee;
   // Raw noise reduction's strength, `[0, 4]`; 0 is off. Needs the noise profile.
   float denoise;
+  // Raw noise reduction's search: `CAMSIM_DENOISE_WIDE` (the default) or
+  // `CAMSIM_DENOISE_FAST`.
+  uint32_t denoise_search;
   // Noise profile: variance = `noise_scale * signal + noise_offset` (signal in `[0, 1]`).
   float noise_scale;
   // Noise profile's offset.

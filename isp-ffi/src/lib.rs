@@ -23,6 +23,7 @@ use core::ffi::c_char;
 use core::mem::{align_of, size_of};
 
 use isp_core::demosaic::Method;
+use isp_core::denoise::Search;
 use isp_core::dpc::{Defect, DpcConfig};
 use isp_core::frame::{RawFrame, RgbViewMut};
 use isp_core::lsc::LensShading;
@@ -69,6 +70,11 @@ pub const CAMSIM_DEMOSAIC_MHC: u32 = 2;
 /// The directional (high-quality) demosaicing.
 pub const CAMSIM_DEMOSAIC_DIRECTIONAL: u32 = 3;
 
+/// Noise reduction's default search: 5x5 packed pixels (10x10 mosaic pixels), for stills.
+pub const CAMSIM_DENOISE_WIDE: u32 = 0;
+/// Noise reduction's fast search: 3x3 packed pixels, for firmware and video.
+pub const CAMSIM_DENOISE_FAST: u32 = 1;
+
 /// Colour filter layout R G / G B.
 pub const CAMSIM_CFA_RGGB: u32 = 0;
 /// Colour filter layout B G / G R.
@@ -112,6 +118,9 @@ pub struct CamsimIspConfig {
     pub highlight_knee: f32,
     /// Raw noise reduction's strength, `[0, 4]`; 0 is off. Needs the noise profile.
     pub denoise: f32,
+    /// Raw noise reduction's search: `CAMSIM_DENOISE_WIDE` (the default) or
+    /// `CAMSIM_DENOISE_FAST`.
+    pub denoise_search: u32,
     /// Noise profile: variance = `noise_scale * signal + noise_offset` (signal in `[0, 1]`).
     pub noise_scale: f32,
     /// Noise profile's offset.
@@ -203,6 +212,7 @@ pub unsafe extern "C" fn camsim_isp_config_default(config: *mut CamsimIspConfig)
         ccm: d.ccm,
         highlight_knee: d.highlight_knee,
         denoise: 0.0,
+        denoise_search: CAMSIM_DENOISE_WIDE,
         noise_scale: 0.0,
         noise_offset: 0.0,
         chroma_denoise: 0.0,
@@ -283,6 +293,11 @@ unsafe fn isp_config<'a>(c: &CamsimIspConfig) -> Result<(IspConfig<'a>, u8), Isp
         demosaic,
         distortion: None,
         denoise: c.denoise,
+        denoise_search: match c.denoise_search {
+            CAMSIM_DENOISE_WIDE => Search::Wide,
+            CAMSIM_DENOISE_FAST => Search::Fast,
+            _ => return Err(invalid("denoise_search", "one of CAMSIM_DENOISE_*")),
+        },
         noise,
         highlight_knee: c.highlight_knee,
         ccm: c.ccm,

@@ -384,7 +384,8 @@ def develop(
     - ``wb`` (three gains) or ``awb`` (one of :data:`AWB_METHODS`); ``ccm`` (3x3, camera RGB
       to linear sRGB) or ``calibration`` (a ``camsim calibrate`` file);
     - ``demosaic`` (``"nearest"``, ``"bilinear"``, ``"mhc"``, ``"directional"``, the default);
-    - ``denoise`` and ``chroma_denoise`` (strengths in [0, 4]), ``noise_profile`` (S, O or
+    - ``denoise`` and ``chroma_denoise`` (strengths in [0, 4]), ``denoise_search``
+      (``"wide"``, the default 5x5 search, or ``"fast"``, 3x3), ``noise_profile`` (S, O or
       six values);
     - ``highlight_knee`` ([0, 1], default 0.9), ``sharpen`` ([0, 4]), ``dpc_threshold``,
       ``defects`` ((x, y) pairs), ``lsc`` ((grid height, grid width, 4) gains), ``look``,

@@ -23,7 +23,7 @@ use crate::raw::{samples, RawFile};
 
 /// The options `develop` takes, by their Python names (the command line's flags with `_` for
 /// `-`), in the order the documentation lists them.
-const KEYS: [&str; 29] = [
+const KEYS: [&str; 30] = [
     "pattern",
     "bits",
     "black_level",
@@ -35,6 +35,7 @@ const KEYS: [&str; 29] = [
     "calibration",
     "demosaic",
     "denoise",
+    "denoise_search",
     "chroma_denoise",
     "noise_profile",
     "highlight_knee",
@@ -142,6 +143,12 @@ fn settings(kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<Settings> {
                 )
             }
             "denoise" => o.denoise = Some(value(&v, k, "a number")?),
+            "denoise_search" => {
+                o.denoise_search = Some(
+                    options::denoise_search(&value::<String>(&v, k, "a string")?, k)
+                        .map_err(refuse)?,
+                )
+            }
             "chroma_denoise" => o.chroma_denoise = Some(value(&v, k, "a number")?),
             "noise_profile" => {
                 o.noise_profile = Some(options::noise_profile(numbers(&v, k)?, k).map_err(refuse)?)

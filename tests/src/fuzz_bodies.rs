@@ -155,7 +155,8 @@ pub fn isp_pipeline(data: &[u8]) {
     };
     let lens = BrownConrady::from_opencv([k1, k2, p1, p2, k3])
         .ok()
-        .and_then(|m| LensDistortion::new(fx, fy, cx, cy, m).ok());
+        .and_then(|m| LensDistortion::new(fx, fy, cx, cy, m).ok())
+        .map(|lens| lens.fitted(w, h));
     let config = IspConfig {
         gain: gain as f32,
         wb_gains: [wb as f32, 1.0, 1.0],

@@ -4,6 +4,7 @@
 //! distortion correction, denoise, CCM, tone and sRGB encoding.
 
 use isp_core::demosaic::Method;
+use isp_core::denoise::Search;
 use isp_core::distortion::LensDistortion;
 use isp_core::dpc::{Defect, DpcConfig};
 use isp_core::frame::{LinearFrame, RawFrame};
@@ -130,6 +131,8 @@ pub struct Settings {
     /// See the pipeline docs.
     pub denoise: f32,
     /// See the pipeline docs.
+    pub denoise_search: Search,
+    /// See the pipeline docs.
     pub noise: Option<NoiseProfile>,
     /// See the pipeline docs.
     pub highlight_knee: f32,
@@ -164,6 +167,7 @@ impl Settings {
             demosaic: self.method,
             distortion: self.distortion,
             denoise: self.denoise,
+            denoise_search: self.denoise_search,
             noise: self.noise,
             highlight_knee: self.highlight_knee,
             ccm: self.ccm,
@@ -182,6 +186,7 @@ impl Settings {
             gain: 1.0,
             wb: [1.0; 3],
             denoise: 0.0,
+            denoise_search: Search::Wide,
             noise: None,
             highlight_knee: 1.0,
             ccm: isp_core::pipeline::IDENTITY,
@@ -326,8 +331,10 @@ fn bilinear_reference(m: &[f64], f: &Frame) -> Vec<[f64; 3]> {
 }
 
 /// Distortion correction from its documented semantics (the `distortion` module docs): the
-/// source position of every output pixel through the Brown-Conrady formula, rounded to 1/32
-/// pixel, and the bilinear mix of the four pixels around it, black off the frame.
+/// source position of every mesh node through the Brown-Conrady formula, rounded to 1/256
+/// pixel; each output pixel's position the bilinear interpolation of its cell's nodes with
+/// integer weights, rounded to 1/32 pixel; the bilinear mix of the four pixels around it,
+/// black off the frame.
 fn undistort_reference(
     rgb: &[[f64; 3]],
     w: usize,
@@ -336,19 +343,43 @@ fn undistort_reference(
 ) -> Vec<[f64; 3]> {
     let [fx, fy, cx, cy] = lens.camera();
     let [k1, k2, p1, p2, k3] = lens.model().to_opencv();
+    let cell = lens.mesh_cell() as i64;
+    let node = |i: i64, j: i64| -> Option<[i64; 2]> {
+        let (x, y) = (((i * cell) as f64 - cx) / fx, ((j * cell) as f64 - cy) / fy);
+        let r2 = x * x + y * y;
+        let radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+        let xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x);
+        let yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y;
+        let (px, py) = (fx * xd + cx, fy * yd + cy);
+        (px.abs() < 2f64.powi(18) && py.abs() < 2f64.powi(18)).then(|| {
+            [
+                (256.0 * px).round_ties_even() as i64,
+                (256.0 * py).round_ties_even() as i64,
+            ]
+        })
+    };
     let mut out = vec![[0.0; 3]; w * h];
     for v in 0..h {
         for u in 0..w {
-            let (x, y) = ((u as f64 - cx) / fx, (v as f64 - cy) / fy);
-            let r2 = x * x + y * y;
-            let radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
-            let xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x);
-            let yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y;
-            let qx = (32.0 * (fx * xd + cx)).round_ties_even();
-            let qy = (32.0 * (fy * yd + cy)).round_ties_even();
-            if !(qx.abs() < 2f64.powi(30) && qy.abs() < 2f64.powi(30)) {
+            let (i, j) = (u as i64 / cell, v as i64 / cell);
+            let (fu, fv) = (u as i64 % cell, v as i64 % cell);
+            let (Some(a), Some(b), Some(c), Some(d)) = (
+                node(i, j),
+                node(i + 1, j),
+                node(i, j + 1),
+                node(i + 1, j + 1),
+            ) else {
                 continue;
-            }
+            };
+            // In 1 / (256 cell^2) pixel, then to 1/32 (half up).
+            let q: [i64; 2] = std::array::from_fn(|k| {
+                let top = (cell - fv) * a[k] + fv * c[k];
+                let bottom = (cell - fv) * b[k] + fv * d[k];
+                let sum = (cell - fu) * top + fu * bottom;
+                let unit = 256 * cell * cell / 32;
+                (sum + unit / 2).div_euclid(unit)
+            });
+            let (qx, qy) = (q[0] as f64, q[1] as f64);
             let (sx, sy) = ((qx / 32.0).floor(), (qy / 32.0).floor());
             let (ax, ay) = ((qx - 32.0 * sx) / 32.0, (qy - 32.0 * sy) / 32.0);
             let mut px = [0.0; 3];
@@ -373,8 +404,15 @@ fn undistort_reference(
 }
 
 /// Noise reduction from its documented semantics (the `denoise` module docs): non-local means
-/// over the mosaic packed into 2x2 blocks, in f64, on the normalised mosaic `x`.
-fn denoise_reference(x: &[f64], f: &Frame, profile: &NoiseProfile, strength: f64) -> Vec<f64> {
+/// over the mosaic packed into 2x2 blocks, in f64, on the normalised mosaic `x`, its patch
+/// distances between variance-stabilised values, over the 5x5 (or 3x3) window.
+fn denoise_reference(
+    x: &[f64],
+    f: &Frame,
+    profile: &NoiseProfile,
+    strength: f64,
+    search: Search,
+) -> Vec<f64> {
     let (wp, hp) = (f.w / 2, f.h / 2);
     let at = |r: i64, i: i64, k: usize| {
         let (r, i) = (mirror(r, hp), mirror(i, wp));
@@ -386,36 +424,38 @@ fn denoise_reference(x: &[f64], f: &Frame, profile: &NoiseProfile, strength: f64
         let c = f.pattern.colour_at(k % 2, k / 2).index();
         (scale[c] as f64, offset[c] as f64)
     });
-    // Inverse variances at every packed pixel and channel, from the 3x3 mean around it.
-    let inverse: Vec<[f64; 4]> = (0..hp * wp)
-        .map(|p| {
-            let (r, i) = ((p / wp) as i64, (p % wp) as i64);
-            std::array::from_fn(|k| {
-                let mut sum = 0.0;
-                for dr in -1..=1 {
-                    for di in -1..=1 {
-                        sum += at(r + dr, i + di, k);
-                    }
-                }
-                1.0 / (term[k].0 * sum / 9.0 + term[k].1).max(floor)
-            })
-        })
-        .collect();
-    let iv = |r: i64, i: i64, k: usize| inverse[mirror(r, hp) * wp + mirror(i, wp)][k];
-    let h = 0.8 * strength;
+    // The integral of 1 / sqrt(max(S t + O, Q)) from 0 to v, in closed form.
+    let stabilise = |v: f64, k: usize| {
+        let (s, o) = term[k];
+        let knee = if o >= floor {
+            0.0
+        } else if s > 0.0 {
+            (floor - o) / s
+        } else {
+            f64::INFINITY
+        };
+        if v <= knee {
+            v / floor.sqrt()
+        } else {
+            knee / floor.sqrt() + 2.0 * ((s * v + o).sqrt() - (s * knee + o).sqrt()) / s
+        }
+    };
+    let stable = |r: i64, i: i64, k: usize| stabilise(at(r, i, k), k);
+    let h = [0.8, 1.0][search as usize] * strength;
+    let radius = search.radius() as i64;
     let mut out = x.to_vec();
     for r in 0..hp as i64 {
         for i in 0..wp as i64 {
             let (mut num, mut den) = ([0.0; 4], 0.0);
-            for dy in -2..=2 {
-                for dx in -2..=2 {
+            for dy in -radius..=radius {
+                for dx in -radius..=radius {
                     let mut distance = 0.0;
                     for pr in -1..=1 {
                         for pi in -1..=1 {
                             let (qr, qi) = (r + pr, i + pi);
                             for k in 0..4 {
-                                let d = at(qr + dy, qi + dx, k) - at(qr, qi, k);
-                                distance += d * d * iv(qr, qi, k);
+                                let d = stable(qr + dy, qi + dx, k) - stable(qr, qi, k);
+                                distance += d * d;
                             }
                         }
                     }
@@ -484,7 +524,13 @@ pub fn reference(f: &Frame, s: &Settings) -> Vec<[f64; 3]> {
         })
         .collect();
     let denoised = match (&s.noise, s.denoise > 0.0) {
-        (Some(profile), true) => Some(denoise_reference(&normalised, f, profile, s.denoise as f64)),
+        (Some(profile), true) => Some(denoise_reference(
+            &normalised,
+            f,
+            profile,
+            s.denoise as f64,
+            s.denoise_search,
+        )),
         _ => None,
     };
     let mut m = vec![0.0; f.w * f.h];

@@ -34,5 +34,6 @@ pub fn lens(w: usize, h: usize) -> impl Strategy<Value = LensDistortion> {
                 model,
             )
             .unwrap()
+            .fitted(w, h)
         })
 }

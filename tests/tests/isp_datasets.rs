@@ -118,7 +118,9 @@ fn fixed_path_agrees_with_float_over_kodak_and_mcmaster() {
             distortion: (i % 5 == 0).then(|| {
                 let model = BrownConrady::from_opencv([-0.25, 0.06, 0.001, -0.002, 0.0]).unwrap();
                 let f = 0.9 * w as f64;
-                LensDistortion::new(f, f, w as f64 / 2.0, h as f64 / 2.0, model).unwrap()
+                LensDistortion::new(f, f, w as f64 / 2.0, h as f64 / 2.0, model)
+                    .unwrap()
+                    .fitted(w, h)
             }),
             denoise: [0.0, 1.0, 2.0][(i / 3) % 3],
             noise: Some(NoiseProfile::uniform(0.0032, 1.2e-5).unwrap()),

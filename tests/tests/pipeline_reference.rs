@@ -5,6 +5,7 @@
 use camsim_tests::isp_reference::{reference, reference_linear, Frame, LinearRef, Settings};
 use camsim_tests::strategies::lens;
 use isp_core::demosaic::Method;
+use isp_core::denoise::Search;
 use isp_core::distortion::LensDistortion;
 use isp_core::dpc::Defect;
 use isp_core::frame::RgbViewMut;
@@ -158,7 +159,7 @@ fn settings_strategy(w: usize, h: usize) -> impl Strategy<Value = Settings> {
         if w.is_multiple_of(2) && h.is_multiple_of(2) {
             prop_oneof![
                 Just(None),
-                (0.25f32..4.0, 1e-4f32..0.02, 1e-7f32..1e-4).prop_map(Some)
+                (0.25f32..4.0, 1e-4f32..0.02, 1e-7f32..1e-4, any::<bool>()).prop_map(Some)
             ]
             .boxed()
         } else {
@@ -219,9 +220,13 @@ fn settings_strategy(w: usize, h: usize) -> impl Strategy<Value = Settings> {
                     grid,
                     gain,
                     wb,
-                    denoise: nr.map_or(0.0, |(strength, _, _)| strength),
+                    denoise: nr.map_or(0.0, |(strength, _, _, _)| strength),
+                    denoise_search: match nr {
+                        Some((_, _, _, true)) => Search::Fast,
+                        _ => Search::Wide,
+                    },
                     noise: nr
-                        .map(|(_, scale, offset)| NoiseProfile::uniform(scale, offset).unwrap()),
+                        .map(|(_, scale, offset, _)| NoiseProfile::uniform(scale, offset).unwrap()),
                     highlight_knee,
                     ccm,
                     tone: Tone {
@@ -367,6 +372,7 @@ fn busy_settings() -> Settings {
         gain: 1.5,
         wb: [2.0, 1.0, 1.6],
         denoise: 1.0,
+        denoise_search: Search::Wide,
         noise: Some(NoiseProfile::uniform(0.004, 2e-5).unwrap()),
         highlight_knee: 0.85,
         ccm: [[1.6, -0.4, -0.2], [-0.3, 1.5, -0.2], [0.0, -0.5, 1.5]],
@@ -380,7 +386,8 @@ fn busy_settings() -> Settings {
                 1.5,
                 BrownConrady::from_opencv([-0.2, 0.05, 0.01, -0.01, 0.0]).unwrap(),
             )
-            .unwrap(),
+            .unwrap()
+            .fitted(5, 4),
         ),
         sharpen: 0.8,
         chroma_denoise: 1.0,
@@ -475,7 +482,8 @@ fn flat_field_stays_flat_through_every_stage() {
             3.0,
             BrownConrady::from_opencv([-0.2, 0.0, 0.0, 0.0, 0.0]).unwrap(),
         )
-        .unwrap(),
+        .unwrap()
+        .fitted(9, 7),
     );
     variants.push(("distortion", s));
     let mut s = base.clone();

@@ -17,6 +17,7 @@ use std::path::Path;
 
 use host_tracer::random::Rng;
 use host_tracer::sensor::pixel;
+use isp_core::denoise::Search;
 use isp_core::frame::RawFrame;
 use isp_core::metrics::cpsnr;
 use isp_core::noise::NoiseProfile;
@@ -61,7 +62,8 @@ pub struct DenoisePoint {
     pub image: String,
     /// The noise level `S`.
     pub scale: f64,
-    /// `noisy` (no noise reduction), `camsim float`, `camsim fixed`, `fnlm h=...`, `cbm3d`,
+    /// `noisy` (no noise reduction), `camsim float`, `camsim fixed` (the default search),
+    /// `camsim float fast`, `camsim fixed fast` (the fast setting), `fnlm h=...`, `cbm3d`,
     /// `bm3d planes`.
     pub method: String,
     /// PSNR in dB against the noise-free development.
@@ -262,6 +264,7 @@ fn develop(
     data: &[u16],
     profile: Option<NoiseProfile>,
     denoise: f32,
+    search: Search,
     fixed: bool,
     repeats: u32,
 ) -> Result<(Vec<u8>, f64), Error> {
@@ -278,6 +281,7 @@ fn develop(
     let config = IspConfig {
         demosaic: DEFAULT_METHOD,
         denoise,
+        denoise_search: search,
         noise: profile,
         chroma_denoise: crate::develop::default_chroma_denoise(denoise),
         ..IspConfig::default()
@@ -338,7 +342,7 @@ pub fn denoise_suite(
         let scene = load(settings, set, file, side)?;
         let megapixels = (scene.width * scene.height) as f64 / 1e6;
         let clean = codes(&scene, None, 0);
-        let (reference, _) = develop(&scene, &clean, None, 0.0, false, 1)?;
+        let (reference, _) = develop(&scene, &clean, None, 0.0, Search::Wide, false, 1)?;
         for (l, &s) in SCALES.iter().enumerate() {
             progress(&format!("denoise: {file} at S = {s}"));
             let noisy = codes(&scene, Some(s), (i * SCALES.len() + l) as u64 + 1);
@@ -351,16 +355,19 @@ pub fn denoise_suite(
                 seconds,
                 megapixels,
             };
-            let (plain, _) = develop(&scene, &noisy, None, 0.0, false, 1)?;
+            let (plain, _) = develop(&scene, &noisy, None, 0.0, Search::Wide, false, 1)?;
             points.push(point("noisy", &plain, 0.0));
-            for fixed in [false, true] {
-                let (out, seconds) = develop(&scene, &noisy, Some(profile), 1.0, fixed, repeats)?;
-                let name = if fixed {
-                    "camsim fixed"
-                } else {
-                    "camsim float"
-                };
-                points.push(point(name, &out, seconds));
+            for search in Search::ALL {
+                for fixed in [false, true] {
+                    let (out, seconds) =
+                        develop(&scene, &noisy, Some(profile), 1.0, search, fixed, repeats)?;
+                    let path = if fixed { "fixed" } else { "float" };
+                    let name = match search {
+                        Search::Wide => format!("camsim {path}"),
+                        Search::Fast => format!("camsim {path} fast"),
+                    };
+                    points.push(point(&name, &out, seconds));
+                }
             }
             let stem = work.join(format!("{}-{l}", scene.name.trim_end_matches(".png")));
             let file_of = |what: &str| stem.with_extension(what);
@@ -412,7 +419,7 @@ pub fn denoise_suite(
                             .chunks_exact(2)
                             .map(|b| u16::from_le_bytes([b[0], b[1]]))
                             .collect();
-                        let (out, _) = develop(scene, &data, None, 0.0, false, 1)?;
+                        let (out, _) = develop(scene, &data, None, 0.0, Search::Wide, false, 1)?;
                         psnr(&out, reference, scene)
                     }
                 };

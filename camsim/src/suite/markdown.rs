@@ -422,7 +422,8 @@ pub fn denoise_table(d: &super::DenoiseSuite) -> String {
          variance S x + O (O from the unprocessing fit, log O = 2.18 log S + 1.2). PSNR of the \
          8-bit development (camsim's float path, default demosaicing) against the noise-free \
          raw's, 8 pixels in from each edge. camsim: noise reduction from the profile at its \
-         default strength. OpenCV: fastNlMeansDenoisingColored on the noisy development at its \
+         default strength, with the default 5x5 search and the fast 3x3 setting (`fast` \
+         rows). OpenCV: fastNlMeansDenoisingColored on the noisy development at its \
          best h per level of {H_GRID:?}. CBM3D: on the noisy development with the true sigma. \
          BM3D planes: each CFA plane of the raw after the generalised Anscombe transform, then \
          developed like camsim's. Mpix/s, one thread: camsim's whole development with noise \

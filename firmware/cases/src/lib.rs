@@ -323,13 +323,10 @@ pub fn config(
         true => {
             let (w, h) = (width as f64, height as f64);
             let model = BrownConrady::from_opencv([-0.15, 0.0, 0.0, 0.0, 0.0])?;
-            Some(LensDistortion::new(
-                w,
-                w,
-                (w - 1.0) / 2.0,
-                (h - 1.0) / 2.0,
-                model,
-            )?)
+            Some(
+                LensDistortion::new(w, w, (w - 1.0) / 2.0, (h - 1.0) / 2.0, model)?
+                    .fitted(width, height),
+            )
         }
         false => None,
     };
@@ -839,9 +836,9 @@ pub const FIRMWARE_SIZES: [(usize, usize); 2] = [(64, 48), (128, 96)];
 pub const FIRMWARE_MAX_PIXELS: usize = 128 * 96;
 /// Fixed-path scratch elements for the largest frame: at least [`scratch_needed`]'s (a test
 /// checks; [`run_case`] refuses a short buffer anyway).
-pub const FIRMWARE_SCRATCH_U16: usize = 44 * 1024;
+pub const FIRMWARE_SCRATCH_U16: usize = 56 * 1024;
 /// Float-path scratch elements for the largest frame, as [`FIRMWARE_SCRATCH_U16`].
-pub const FIRMWARE_SCRATCH_F32: usize = 19 * 1024;
+pub const FIRMWARE_SCRATCH_F32: usize = 27 * 1024;
 
 /// A firmware's whole run, the same on every core: every case at [`FIRMWARE_SIZES`] through
 /// [`report`] with `clock`, then `calibrate` (which runs a loop of known length and returns its

@@ -204,6 +204,7 @@ fn pipeline_runs() -> bool {
     let Ok(lens) = LensDistortion::new(8.0, 8.0, 3.5, 1.5, model) else {
         return false;
     };
+    let lens = lens.fitted(8, 4);
     let config = IspConfig {
         distortion: Some(lens),
         ..config

@@ -138,6 +138,24 @@ impl From<LookArg> for Look {
     }
 }
 
+/// Noise reduction's search window.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum DenoiseSearchArg {
+    /// 5x5 packed pixels (12 offsets by symmetry): the default.
+    Wide,
+    /// 3x3 packed pixels (4 offsets): the fast setting, for video and firmware.
+    Fast,
+}
+
+impl From<DenoiseSearchArg> for isp_core::denoise::Search {
+    fn from(s: DenoiseSearchArg) -> Self {
+        match s {
+            DenoiseSearchArg::Wide => isp_core::denoise::Search::Wide,
+            DenoiseSearchArg::Fast => isp_core::denoise::Search::Fast,
+        }
+    }
+}
+
 /// The framing of a developed DNG.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum CropArg {

@@ -11,7 +11,9 @@ use camsim::Error;
 use clap::Args;
 use raw_formats::calibration::CalibrationFile;
 
-use crate::args::{AwbArg, CropArg, LookArg, PathArg, PatternArg, PipelineDemosaicArg};
+use crate::args::{
+    AwbArg, CropArg, DenoiseSearchArg, LookArg, PathArg, PatternArg, PipelineDemosaicArg,
+};
 
 /// The options of `camsim isp`. Every processing option can also come from `--config FILE`
 /// (see [`crate::isp_options`]); a flag given here wins over the file.
@@ -85,10 +87,15 @@ pub struct ProcessingArgs {
     #[arg(long, allow_hyphen_values = true)]
     pub camera_matrix: Option<String>,
     /// Noise reduction's strength, a multiplier on the default the noise profile sets: [0, 4],
-    /// 0 off [default: 1 for a mosaic with a noise profile (given, the file's, or estimated),
-    /// else 0]. Raw-domain non-local means, distances in units of the profile's variance.
+    /// 0 off [default: 1 for a mosaic with a noise profile (given, the file's, or estimated;
+    /// 0.5 for an estimate the report calls low confidence: texture above noise), else 0].
+    /// Raw-domain non-local means, distances in units of the profile's variance.
     #[arg(long)]
     pub denoise: Option<f32>,
+    /// Noise reduction's search window: wide (5x5 packed pixels, 12 offsets by symmetry) or
+    /// fast (3x3, 4 offsets: about a third of the cost, for video and firmware) [default: wide].
+    #[arg(long, value_enum)]
+    pub denoise_search: Option<DenoiseSearchArg>,
     /// Chroma noise reduction's strength, [0, 4], 0 off: an edge-aware mean of each pixel's
     /// chroma over its neighbours after sRGB encoding, which keeps luma and takes out the
     /// colour mottling noise leaves after demosaicing [default: 1 where noise reduction is
@@ -168,6 +175,7 @@ impl ProcessingArgs {
                 .transpose()?,
             demosaic: self.demosaic.map(Into::into),
             denoise: self.denoise,
+            denoise_search: self.denoise_search.map(Into::into),
             noise_profile: list(&self.noise_profile, "--noise-profile", &[2, 6])?
                 .map(|v| options::noise_profile(v, "--noise-profile"))
                 .transpose()?,
