@@ -409,17 +409,6 @@ impl PlanarArithmetic for FloatParams {
 /// = 4096`), so capping each term here changes no weight.
 const COST_CAP: u32 = 1 << 28;
 
-/// A difference's cost in 32 bits, `(per_code, limit)` from [`FixedParams`]: the product where
-/// it is at most [`COST_CAP`] (`d <= limit = 2^28 / per_code`), else the cap.
-#[inline(always)]
-fn capped(d: u32, (per_code, limit): (u32, u32)) -> u32 {
-    if d <= limit {
-        d * per_code
-    } else {
-        COST_CAP
-    }
-}
-
 impl PlanarArithmetic for FixedParams {
     type D = i32;
     type W = i32;
@@ -427,12 +416,18 @@ impl PlanarArithmetic for FixedParams {
     #[inline(always)]
     fn weight(&self, p: [i32; SPLIT], q: [i32; SPLIT]) -> i32 {
         let d = |k: usize| q[k].abs_diff(p[k]);
-        // Each capped term is at most 2^28, so the sum of four fits u32; a capped term gives
-        // weight 0, as the uncapped sum would.
-        let cost = capped(d(0), self.luma_capped)
-            + capped(d(1), self.chroma_capped)
-            + capped(d(2), self.chroma_capped)
-            + capped(d(3), self.chroma_capped);
+        let (d0, d1, d2, d3) = (d(0), d(1), d(2), d(3));
+        let ((luma_per_code, luma_limit), (chroma_per_code, chroma_limit)) =
+            (self.luma_capped, self.chroma_capped);
+        // A term over its limit would be capped at COST_CAP, which zeroes the weight by
+        // itself; under the limits each term is at most 2^28, so the sum of four fits u32,
+        // and the three chroma terms share one multiply (the same sum as term by term).
+        let over = d0 > luma_limit || d1 > chroma_limit || d2 > chroma_limit || d3 > chroma_limit;
+        let cost = if over {
+            COST_CAP
+        } else {
+            d0 * luma_per_code + (d1 + d2 + d3) * chroma_per_code
+        };
         let w = (1i32 << WEIGHT_BITS) - ((cost.min(COST_CAP) + (1 << 15)) >> 16) as i32;
         if w > 0 {
             w
