@@ -53,8 +53,8 @@
 //! unsigned Q16 (so a gained sample is the float one to well under a code, which the
 //! highlight stage needs: it turns a bright neighbour's relative error into a dark channel's
 //! absolute one); demosaicing with the integer kernels;
-//! noise reduction with Q16 distances and Q24 weights ([`crate::denoise`]); distortion
-//! correction with the same source positions and integer weights over 1024; the CCM in signed Q4.16; saturation as a Q16 matrix; contrast and
+//! noise reduction with tabled stabilised values, Q15 weights and 64-bit sums ([`crate::denoise`]); distortion
+//! correction with the same mesh positions and integer weights over 1024; the CCM in signed Q4.16; saturation as a Q16 matrix; contrast and
 //! curve through [`ToneLut`]; encoding through [`EncodeLut`] (at 16 bits first when
 //! sharpening or chroma noise reduction, which then run on 16-bit codes with Q16 luma weights,
 //! a Q12 amount and Q12 chroma weights, and reduce to the output depth last). Every step rounds to nearest and
@@ -69,51 +69,31 @@
 //! # Streaming
 //!
 //! [`FloatPipeline::run`] and [`FixedPipeline::run`] produce any band of output rows
-//! `rows.start..rows.end` from the raw frame (which stays in caller memory). They keep five rows
-//! of the prepared mosaic and three rows of demosaiced RGB in ring buffers carved from the
-//! caller's scratch, `14 * width` elements ([`scratch_len`]), the equivalent of under five rows of
-//! the widest stage. Every row is a function of the frame alone, never of what was computed
-//! before, so running a frame in bands of any height gives bit-identical output to running it
-//! whole; a band recomputes the few rows of context above and below it.
+//! `rows.start..rows.end` from the raw frame (which stays in caller memory). Every row is a
+//! function of the frame alone, never of what was computed before, so running a frame in
+//! bands of any height gives bit-identical output to running it whole; a band recomputes the
+//! rows of context above and below it (12 for the directional method, the search radius and
+//! patch for noise reduction).
 //!
-//! The directional method ([`crate::demosaic::directional`]) reads 11 rows either side, so it
-//! keeps its own ring buffers of its working values (`f32` in the float path, `i32` in the
-//! fixed path, carved from the `u16` scratch two elements each) and the mosaic ring holds
-//! just the row being prepared: [`FloatPipeline::scratch_len`] and
-//! [`FixedPipeline::scratch_len`] give each path's need. At 4096 pixels wide that is 1.41 MiB
-//! for the fixed path and 1.52 MiB for the float path (1.37 MB of it the directional rings,
-//! [`directional::scratch_len`]); a band restarts the method 12 rows above its first row.
+//! # The schedule
 //!
-//! # Speed: the planar schedule and the AVX2 and AVX-512 entries
+//! Every configuration, on both paths, runs on one schedule (`pipeline/planar.rs`'s module docs): rows
+//! split into even and odd columns with reflected padding, so each stage is a loop over
+//! contiguous slices with constants fixed per loop, which the compiler vectorises; noise
+//! reduction streams offset by offset over packed rows ([`crate::denoise`]); distortion
+//! correction interpolates its mesh per row. Rings of rows live in the caller's scratch:
+//! [`IspConfig::scratch_len`] gives the total for a frame size ([`scratch_len`] is the base,
+//! `16 * width + 20`; noise reduction, the directional method and distortion add their own
+//! rings). [`FixedPipeline::run_input_avx2`] and [`FloatPipeline::run_input_avx2`] are the
+//! same entry compiled for AVX2, `run_input_avx512` for AVX-512 F/BW/VL/DQ (x86-64, unsafe to
+//! call without the features, so check them first, as `camsim` does). The earlier general
+//! streaming engine survives only as `run_input_general`, the reference the tests compare
+//! the schedule with bit for bit (not used at run time).
 //!
-//! The common camera pipeline (a raw frame at least 8 pixels wide and 3 high; defect
-//! correction, black level, gain, white balance, bilinear, MHC or directional, highlights,
-//! colour matrix, sharpening;
-//! 8-bit output; no shading grid, distortion correction, noise reduction (raw or chroma) or tone) runs on
-//! a second schedule of the same stages: rows split into even and odd columns with reflected
-//! padding, so each stage is a loop over contiguous slices with constants fixed per loop, which
-//! the compiler vectorises. It gives the engine's output bit for bit (the fixed path keeps the
-//! engine's 64-bit products exactly in 32-bit lanes; the float path forms every sum in the
-//! engine's order); `run` and `run_input` choose it by themselves, and every other
-//! configuration runs on the engine. It needs no more scratch than the engine
-//! ([`scratch_len`], plus the directional rings with that method). The directional method
-//! runs there as its stream, fed the prepared rows and writing planes. With sharpening on,
-//! each row is encoded into a ring of three (encoded planes and their luma) one row ahead of
-//! the output, and the unsharp mask runs over the planes: the fixed path's 16-bit encoding
-//! (a branch-free table read) and the mask vectorise; the float path evaluates the exact
-//! curve per sample (`libm`'s `powf`), as the engine does, which dominates its time.
-//! [`FixedPipeline::run_input_avx2`] and [`FloatPipeline::run_input_avx2`] are the same entry
-//! compiled for AVX2, `run_input_avx512` for AVX-512 F/BW/VL/DQ (which only the directional
-//! method gains from; x86-64, unsafe to call without the features, so check them first, as
-//! `camsim` does). On a 2592x1968 frame, one thread: about 4.5 ns per pixel with MHC on
-//! either path, against 17 on the engine; with the directional method 8.3 ns float and 15
-//! fixed.
-//!
-//! Distortion correction is the one stage whose window is not fixed: an output row reads the
-//! input rows the lens bent it across ([`LensDistortion::window_rows`], a few for a mild lens,
-//! tens for strong barrel distortion on a large frame). With it on, the demosaiced ring holds
-//! that many rows and three more rows hold corrected RGB:
-//! [`IspConfig::scratch_len`] reports the total for a frame size, `(14 + 3 * window) * width`.
+//! Per-sample powers on the float path (tone's curve, sRGB encoding for sharpening and chroma
+//! noise reduction) are a vectorisable estimate ([`crate::math`]), not `powf`: the sRGB encoding within
+//! 2.5e-7 of the exact curve, tone's channel within 2e-6 (both tested). Speed, measured with `camsim bench isp --config
+//! docs/bench/demo-camera.toml --threads 1` on a 2592x1968 frame: `docs/performance.md`.
 //!
 //! ```
 //! use isp_core::frame::{RawFrame, RgbViewMut};

@@ -1501,6 +1501,14 @@ pub fn opencv_pipeline(
         "wb": config.wb_gains.map(|g| g * config.gain),
         "ccm": config.ccm,
         "sharpen": config.sharpen,
+        // Raw noise reduction's counterpart: OpenCV's non-local means on the mosaic packed as
+        // four channels, at the noise's deviation in codes at mid-grey (18 %).
+        "denoise_sigma": config.noise.filter(|_| config.denoise > 0.0).map(|p| {
+            let (s, o) = (p.scale()[1], p.offset()[1]);
+            f64::from((s * 0.18 + o).max(0.0).sqrt())
+                * f64::from(raw.white_level() - raw.black_level()[0])
+                * f64::from(config.denoise)
+        }),
         "threads": threads,
         "repeats": repeats.max(1),
         "output": output.is_some().then(|| image.display().to_string()),

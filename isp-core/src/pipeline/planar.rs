@@ -1149,7 +1149,13 @@ fn pad<T: Copy>(halves: Halves, row: &mut [T]) {
         return;
     }
     let o = halves.odd_start();
-    let at = |x: usize| if x.is_multiple_of(2) { 1 + x / 2 } else { o + 1 + x / 2 };
+    let at = |x: usize| {
+        if x.is_multiple_of(2) {
+            1 + x / 2
+        } else {
+            o + 1 + x / 2
+        }
+    };
     // Padded entries: E(-1) = column -2, E(even) = column 2 even, O(-1) = column -1, O(odd)
     // = column 2 odd + 1.
     for (index, column) in [

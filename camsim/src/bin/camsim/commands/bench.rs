@@ -366,9 +366,15 @@ fn bench_isp(args: &BenchIspArgs) -> Result<String, Error> {
             ) {
                 Ok(peer_ms) => (
                     Some(PeerFigures {
-                        what: "OpenCV: subtract, cvtColor Bayer 16-bit, multiply, transform, \
-                               convertScaleAbs, LUT"
-                            .into(),
+                        what: if p.config.denoise > 0.0 && p.config.noise.is_some() {
+                            "OpenCV: subtract, fastNlMeansDenoising (packed mosaic, template 3, \
+                             search 5), cvtColor Bayer 16-bit, multiply, transform, \
+                             convertScaleAbs, LUT"
+                        } else {
+                            "OpenCV: subtract, cvtColor Bayer 16-bit, multiply, transform, \
+                             convertScaleAbs, LUT"
+                        }
+                        .into(),
                         ms_per_frame: peer_ms,
                         time_ratio: ms / peer_ms,
                     }),
