@@ -128,71 +128,38 @@ fn pipeline_runs() -> bool {
         highlight_knee: 0.9,
         ..IspConfig::default()
     };
-    let Ok(pipeline) = FixedPipeline::new(&config, 8) else {
-        return false;
+    // Each configuration runs in exactly the scratch `IspConfig::scratch_len` reports, carved
+    // from one stack buffer.
+    let mut buffer = [0u16; SCRATCH];
+    let mut develops = |config: &IspConfig<'_>| -> bool {
+        let Ok(pipeline) = FixedPipeline::new(config, 8) else {
+            return false;
+        };
+        let Some(scratch) = config.scratch_len(8, 4).and_then(|n| buffer.get_mut(..n)) else {
+            return false;
+        };
+        let mut rgb = [0u8; 96];
+        let Ok(mut out) = RgbViewMut::new(&mut rgb, 8, 4, 24) else {
+            return false;
+        };
+        pipeline.run(&raw, 0..4, scratch, &mut out).is_ok() && rgb.iter().all(|v| *v == 188)
     };
-    // 14 rows, plus noise reduction's packed rows, filtered pair and work (`scratch_len`).
-    const NR: usize = 707;
-    if config.scratch_len(8, 4) != Some(14 * 8 + NR) {
+    if !develops(&config) {
         return false;
     }
-    let mut scratch = [0u16; 14 * 8 + NR];
-    let mut rgb = [0u8; 96];
-    let Ok(mut out) = RgbViewMut::new(&mut rgb, 8, 4, 24) else {
-        return false;
-    };
-    if !(pipeline.run(&raw, 0..4, &mut scratch, &mut out).is_ok() && rgb.iter().all(|v| *v == 188))
-    {
-        return false;
-    }
-    // Again with the directional method (its integer version; its rings take two u16 per
-    // i32, plus one for alignment).
-    const DIRECTIONAL: usize = match isp_core::demosaic::directional::scratch_len(8) {
-        Some(n) => 14 * 8 + 2 * n + 1 + NR,
-        None => 0,
-    };
-    let directional = IspConfig {
+    // Again with the directional method (its integer version).
+    if !develops(&IspConfig {
         demosaic: isp_core::demosaic::Method::Directional,
         ..config
-    };
-    let Ok(pipeline) = FixedPipeline::new(&directional, 8) else {
-        return false;
-    };
-    if directional
-        .scratch_len(8, 4)
-        .is_none_or(|n| n > DIRECTIONAL)
-    {
+    }) {
         return false;
     }
-    let mut scratch = [0u16; DIRECTIONAL];
-    let mut rgb = [0u8; 96];
-    let Ok(mut out) = RgbViewMut::new(&mut rgb, 8, 4, 24) else {
-        return false;
-    };
-    if !(pipeline.run(&raw, 0..4, &mut scratch, &mut out).is_ok() && rgb.iter().all(|v| *v == 188))
-    {
-        return false;
-    }
-    // Again with chroma noise reduction and sharpening after encoding: a ring of seven split
-    // rows of i32 (two u16 each, plus one for alignment) and the encoded row, 75 per pixel.
-    let detail = IspConfig {
+    // Again with chroma noise reduction and sharpening after encoding.
+    if !develops(&IspConfig {
         chroma_denoise: 1.0,
         sharpen: 0.5,
         ..config
-    };
-    let Ok(pipeline) = FixedPipeline::new(&detail, 8) else {
-        return false;
-    };
-    if detail.scratch_len(8, 4) != Some(14 * 8 + NR + 75 * 8 + 1) {
-        return false;
-    }
-    let mut scratch = [0u16; 14 * 8 + NR + 75 * 8 + 1];
-    let mut rgb = [0u8; 96];
-    let Ok(mut out) = RgbViewMut::new(&mut rgb, 8, 4, 24) else {
-        return false;
-    };
-    if !(pipeline.run(&raw, 0..4, &mut scratch, &mut out).is_ok() && rgb.iter().all(|v| *v == 188))
-    {
+    }) {
         return false;
     }
     // Again with barrel distortion corrected: the flat field stays flat (the lens samples
@@ -204,24 +171,14 @@ fn pipeline_runs() -> bool {
     let Ok(lens) = LensDistortion::new(8.0, 8.0, 3.5, 1.5, model) else {
         return false;
     };
-    let lens = lens.fitted(8, 4);
-    let config = IspConfig {
-        distortion: Some(lens),
+    develops(&IspConfig {
+        distortion: Some(lens.fitted(8, 4)),
         ..config
-    };
-    let Ok(pipeline) = FixedPipeline::new(&config, 8) else {
-        return false;
-    };
-    let mut scratch = [0u16; (14 + 3 * 4) * 8 + NR];
-    if config.scratch_len(8, 4).is_none_or(|n| n > scratch.len()) {
-        return false;
-    }
-    let mut rgb = [0u8; 96];
-    let Ok(mut out) = RgbViewMut::new(&mut rgb, 8, 4, 24) else {
-        return false;
-    };
-    pipeline.run(&raw, 0..4, &mut scratch, &mut out).is_ok() && rgb.iter().all(|v| *v == 188)
+    })
 }
+
+/// The stack buffer every configuration's scratch is carved from (16 KiB).
+const SCRATCH: usize = 8192;
 
 /// The precompiled libcore carries unwind tables that name this symbol; with `panic = "abort"`
 /// nothing ever calls it.
