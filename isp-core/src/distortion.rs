@@ -321,7 +321,7 @@ impl LensDistortion {
     }
 
     /// The input rows output row `v` reads (a bound from its cell row's nodes, see
-    /// [`LensDistortion::node_row_bounds`]), or `None` when the row reads nothing of the
+    /// `LensDistortion::node_row_bounds`), or `None` when the row reads nothing of the
     /// frame. Evaluates the model at the nodes of `v`'s cell row.
     pub fn source_rows(
         &self,

@@ -91,7 +91,7 @@
 //! the schedule with bit for bit (not used at run time).
 //!
 //! Per-sample powers on the float path (tone's curve, sRGB encoding for sharpening and chroma
-//! noise reduction) are a vectorisable estimate ([`crate::math`]), not `powf`: the sRGB encoding within
+//! noise reduction) are a vectorisable estimate (`math::pow_estimate`), not `powf`: the sRGB encoding within
 //! 2.5e-7 of the exact curve, tone's channel within 2e-6 (both tested). Speed, measured with `camsim bench isp --config
 //! docs/bench/demo-camera.toml --threads 1` on a 2592x1968 frame: `docs/performance.md`.
 //!

@@ -100,7 +100,7 @@ pub fn encode(linear: f32) -> f32 {
     }
 }
 
-/// [`encode`] with its power estimated in `f32` arithmetic alone ([`crate::math`]'s
+/// [`encode`] with its power estimated in `f32` arithmetic alone (`math`'s
 /// `2^(k log2 x)` by short series), so that a loop of it vectorises: the float pipeline's
 /// encoding wherever it needs the continuous value (16-bit and `f32` output, sharpening,
 /// chroma noise reduction), in place of a `powf` per sample. Within 2.5e-7 of the exact curve
