@@ -241,20 +241,17 @@ impl Tone {
 
     /// The whole stage on one pixel (the float reference).
     pub fn apply(&self, rgb: [f32; 3]) -> [f32; 3] {
-        let rgb = if self.saturation_is_identity() {
-            rgb
-        } else {
-            self.saturate(rgb)
-        };
-        if self.curve_is_identity() {
-            rgb
-        } else {
-            rgb.map(|c| self.channel(c))
-        }
+        self.apply_with(rgb, Self::channel)
     }
 
     /// [`Tone::apply`] with [`Tone::channel_estimated`]: the float pipeline's tone.
     pub fn apply_estimated(&self, rgb: [f32; 3]) -> [f32; 3] {
+        self.apply_with(rgb, Self::channel_estimated)
+    }
+
+    /// Saturation, then `channel` per channel, each skipped where it is the identity.
+    #[inline(always)]
+    fn apply_with(&self, rgb: [f32; 3], channel: impl Fn(&Self, f32) -> f32) -> [f32; 3] {
         let rgb = if self.saturation_is_identity() {
             rgb
         } else {
@@ -263,7 +260,7 @@ impl Tone {
         if self.curve_is_identity() {
             rgb
         } else {
-            rgb.map(|c| self.channel_estimated(c))
+            rgb.map(|c| channel(self, c))
         }
     }
 
