@@ -32,8 +32,8 @@
 //! Encoded pixels are 16-bit codes, `Y` rounded from Q16 weights (the sharpening stage's),
 //! chroma `i32`. A weight is Q12: `max(0, 4096 - ((|dY| a_y + sum |dc| a_c + 2^15) >> 16))`
 //! with `a_y = round(2^28 / (65535 t_y))` (and `a_c` likewise), so a code of difference
-//! costs what it does in the float path; sums are `i64`, and each mean is the sum times the
-//! weights' sum's Q40 reciprocal `floor(2^40 / sum w)`, rounded to the nearest code (half up).
+//! costs what it does in the float path; each mean is the weighted sum divided by the weights'
+//! sum, rounded to the nearest code (halves up), exactly on every target.
 //!
 //! ```
 //! use isp_core::chroma::{self, FloatParams};
@@ -50,6 +50,7 @@
 //! ```
 
 use crate::demosaic::reflect;
+use crate::math;
 use crate::IspError;
 
 /// Pixels either side of the centre a pass reads.
@@ -74,9 +75,6 @@ pub(crate) const LUMA: [f32; 3] = [0.2126, 0.7152, 0.0722];
 pub(crate) const LUMA_Q16: [u32; 3] = [13933, 46871, 4732];
 /// Fractional bits of the fixed path's weights.
 const WEIGHT_BITS: u32 = 12;
-/// Fractional bits of the reciprocal of the weights' sum: a mean is off by at most
-/// `|num| / 2^40` (under 2^-8 of a code) before its rounding.
-const RECIP_BITS: u32 = 40;
 /// The fixed path's per-code weight costs are capped here, so every product fits `i64`
 /// whatever the strength (a cost this high already zeroes a weight at one code).
 const MAX_COST: f64 = (1u64 << 40) as f64;
@@ -310,26 +308,57 @@ impl Arithmetic for FloatParams {
     }
 }
 
-/// `floor(2^40 / den)` for `den >= 1`. On 32-bit ARM, whose hardware divides only 32 by 32
-/// bits (an `i64` division is a software routine, 150 instructions per pixel per pass on the
-/// Cortex-M4), as two 32-bit divisions of a long division when `den < 2^16`: the same quotient.
+/// `num / den` rounded to the nearest integer, halves up, for each of `nums`, for `den` in
+/// `1..2^15` and quotients below 2^16 in magnitude (means of chroma codes). Exact on every
+/// target, so every target gives the same means: on x86-64 from an `f32` estimate (which
+/// vectorises; an integer division does not) corrected by its remainder, elsewhere by 32-bit
+/// divisions.
 #[inline(always)]
-fn recip_q40(den: i64) -> i64 {
-    // On x86-64 in `f64`, which vectorises (an `i64` division does not): for `1 <= den <
-    // 2^22` the quotient is below 2^40 and a non-integer one lies at least `1 / den` from the
-    // next integer, far more than the division's relative error of 2^-53, so the truncated
-    // quotient is the floor.
+fn rounded_quotients(nums: [i32; 3], den: i32) -> [i32; 3] {
     #[cfg(target_arch = "x86_64")]
-    if (1..1 << 22).contains(&den) {
-        return ((1u64 << RECIP_BITS) as f64 / den as f64) as i64;
+    {
+        quotients_from_estimate(nums, den)
     }
-    #[cfg(target_arch = "arm")]
-    if let Ok(d @ 1..=0xFFFF) = u32::try_from(den) {
-        // 2^40 = 2^24 * 2^16: the high digit's remainder is below `d`, so `r << 16` fits.
-        let (q, r) = ((1u32 << 24) / d, (1u32 << 24) % d);
-        return i64::from(q) << 16 | i64::from((r << 16) / d);
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        quotients_from_division(nums, den)
     }
-    (1i64 << RECIP_BITS) / den.max(1)
+}
+
+/// [`rounded_quotients`] from `f32` estimates. An estimate `num * (1 / den)` is within
+/// `3 * 2^-24` relative of the quotient (three roundings), under 0.02 below 2^16, so its
+/// nearest integer is within one of the rounded quotient; the remainder `num - den q` then
+/// says which way, in 32 bits (`den |q| < 2^15 2^16`).
+#[inline(always)]
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+fn quotients_from_estimate(nums: [i32; 3], den: i32) -> [i32; 3] {
+    let recip = 1.0 / den as f32;
+    let quotient = |num: i32| correct_quotient(num, den, math::nearest(num as f32 * recip));
+    // Spelled out: `array::map` is not inlined into the ISA entries.
+    [quotient(nums[0]), quotient(nums[1]), quotient(nums[2])]
+}
+
+/// [`rounded_quotients`] by integer divisions (truncating, then corrected to halves up).
+#[inline(always)]
+#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
+fn quotients_from_division(nums: [i32; 3], den: i32) -> [i32; 3] {
+    let den = den.max(1);
+    let quotient = |num: i32| correct_quotient(num, den, num / den);
+    [quotient(nums[0]), quotient(nums[1]), quotient(nums[2])]
+}
+
+/// `q`, a quotient of `num / den` within one of the rounded one, corrected to it: the rounded
+/// quotient `m` leaves a remainder `num - den m` in `[-den / 2, den / 2)`.
+#[inline(always)]
+fn correct_quotient(num: i32, den: i32, q: i32) -> i32 {
+    let twice_rem = 2 * num.wrapping_sub(den.wrapping_mul(q));
+    if twice_rem >= den {
+        q + 1
+    } else if twice_rem < -den {
+        q - 1
+    } else {
+        q
+    }
 }
 
 impl Arithmetic for FixedParams {
@@ -349,12 +378,10 @@ impl Arithmetic for FixedParams {
             }
             den += w;
         }
-        // The centre's weight is 2^12, so `den` is in `[2^12, 7 * 2^12]` and its Q40
-        // reciprocal below 2^28; `|num| < 2^32`, so the product fits i64, and one division
-        // serves the three means.
-        let recip = recip_q40(den);
-        let mean = |num: i64| ((num * recip + (1 << (RECIP_BITS - 1))) >> RECIP_BITS) as i32;
-        [p[0], mean(sum[0]), mean(sum[1]), mean(sum[2])]
+        // The centre's weight is 2^12, so `den` is in `[2^12, 7 * 2^12]`; chroma is below
+        // 2^16 in magnitude, so `|num| < 7 * 2^28` and both fit i32, as the mean does.
+        let [r, g, b] = rounded_quotients(sum.map(|num| num as i32), den as i32);
+        [p[0], r, g, b]
     }
 }
 
@@ -371,6 +398,8 @@ pub(crate) trait PlanarArithmetic: Copy {
     type W: Copy + Default + core::ops::Add<Output = Self::W>;
     /// The weight of neighbour `q` for pixel `p` (luma, then the three chroma).
     fn weight(&self, p: [Self::D; SPLIT], q: [Self::D; SPLIT]) -> Self::W;
+    /// The centre's weight (every pixel's weight with itself).
+    const ONE: Self::W;
     /// `w c`.
     fn times(w: Self::W, c: Self::D) -> Self::W;
     /// The three means from their sums and the weights' sum.
@@ -380,6 +409,7 @@ pub(crate) trait PlanarArithmetic: Copy {
 impl PlanarArithmetic for FloatParams {
     type D = f32;
     type W = f32;
+    const ONE: f32 = 1.0;
 
     #[inline(always)]
     fn weight(&self, p: [f32; SPLIT], q: [f32; SPLIT]) -> f32 {
@@ -412,6 +442,7 @@ const COST_CAP: u32 = 1 << 28;
 impl PlanarArithmetic for FixedParams {
     type D = i32;
     type W = i32;
+    const ONE: i32 = 1 << WEIGHT_BITS;
 
     #[inline(always)]
     fn weight(&self, p: [i32; SPLIT], q: [i32; SPLIT]) -> i32 {
@@ -444,55 +475,191 @@ impl PlanarArithmetic for FixedParams {
 
     #[inline(always)]
     fn means(sums: [i32; 3], den: i32) -> [i32; 3] {
-        let recip = recip_q40(i64::from(den));
-        let mean =
-            |num: i32| ((i64::from(num) * recip + (1 << (RECIP_BITS - 1))) >> RECIP_BITS) as i32;
-        [mean(sums[0]), mean(sums[1]), mean(sums[2])]
+        rounded_quotients(sums, den)
     }
 }
 
-/// One pass over a row of `n` pixels in planes: `taps[k]` are the four planes of tap `k`
-/// (offset `k - RADIUS`), each aligned with the output (element `i` of tap `k` is pixel `i`'s
-/// neighbour); `out` gets luma copied from the centre tap and the means of chroma. The taps
-/// loop outside the pixels, so each tap is a loop over contiguous slices; `work` holds the
-/// four running sums (`4 n` elements), each pixel's formed in tap order as
-/// [`horizontal_f32`] forms them.
+/// The weight of one offset along a run of pixels: `out[i]` is the weight between pixel `i`
+/// of `a` and pixel `i` of `b` (four planes each: luma, then the three chroma). A weight is
+/// symmetric, so one row serves both taps of the offset: the pixel of `a` for its neighbour
+/// in `b` and the pixel of `b` for its neighbour in `a` (Condat's observation for non-local
+/// means, 2010), and a pass computes [`RADIUS`] weights a pixel, not [`TAPS`].
 #[inline(always)]
-pub(crate) fn pass_planes<A: PlanarArithmetic>(
+pub(crate) fn weight_row<A: PlanarArithmetic>(
     params: &A,
+    a: [&[A::D]; SPLIT],
+    b: [&[A::D]; SPLIT],
+    out: &mut [A::W],
+) {
+    let n = out.len();
+    let [ay, ar, ag, ab] = a.map(|plane| &plane[..n]);
+    let [by, br, bg, bb] = b.map(|plane| &plane[..n]);
+    for i in 0..n {
+        out[i] = params.weight([ay[i], ar[i], ag[i], ab[i]], [by[i], br[i], bg[i], bb[i]]);
+    }
+}
+
+/// One pass's means over a run of `n` pixels, from the taps and their weights: `taps[k]` are
+/// the four planes of tap `k` (offset `k - RADIUS`), each aligned with the output (element
+/// `i` of tap `k` is pixel `i`'s neighbour); `weights` the weights of every tap but the
+/// centre (whose weight is one), in tap order, aligned likewise. `out` gets luma copied from
+/// the centre tap and the means of chroma. Each pixel's sums are formed in tap order, as
+/// [`horizontal_f32`] forms them (so the same floats), in registers.
+#[inline(always)]
+pub(crate) fn weighted_means<A: PlanarArithmetic>(
     taps: [[&[A::D]; SPLIT]; TAPS],
+    weights: [&[A::W]; TAPS - 1],
     out: [&mut [A::D]; SPLIT],
-    work: &mut [A::W],
 ) {
     let [y_out, r_out, g_out, b_out] = out;
     let n = y_out.len();
     let (r_out, g_out, b_out) = (&mut r_out[..n], &mut g_out[..n], &mut b_out[..n]);
-    let (sr, rest) = work.split_at_mut(n);
-    let (sg, rest) = rest.split_at_mut(n);
-    let (sb, den) = rest.split_at_mut(n);
-    let den = &mut den[..n];
-    sr.fill(A::W::default());
-    sg.fill(A::W::default());
-    sb.fill(A::W::default());
-    den.fill(A::W::default());
-    let [py, pr, pg, pb] = taps[RADIUS].map(|plane| &plane[..n]);
-    for tap in &taps {
-        let [qy, qr, qg, qb] = tap.map(|plane| &plane[..n]);
-        for i in 0..n {
-            let w = params.weight([py[i], pr[i], pg[i], pb[i]], [qy[i], qr[i], qg[i], qb[i]]);
-            sr[i] = sr[i] + A::times(w, qr[i]);
-            sg[i] = sg[i] + A::times(w, qg[i]);
-            sb[i] = sb[i] + A::times(w, qb[i]);
-            den[i] = den[i] + w;
-        }
-    }
+    let taps = taps.map(|tap| tap.map(|plane| &plane[..n]));
+    let weights = weights.map(|w| &w[..n]);
     for i in 0..n {
-        let [r, g, b] = A::means([sr[i], sg[i], sb[i]], den[i]);
-        y_out[i] = py[i];
+        let (mut sr, mut sg, mut sb, mut den) = Default::default();
+        for (k, [_, qr, qg, qb]) in taps.iter().enumerate() {
+            let w = match k {
+                RADIUS => A::ONE,
+                k if k < RADIUS => weights[k][i],
+                k => weights[k - 1][i],
+            };
+            sr = sr + A::times(w, qr[i]);
+            sg = sg + A::times(w, qg[i]);
+            sb = sb + A::times(w, qb[i]);
+            den = den + w;
+        }
+        let [r, g, b] = A::means([sr, sg, sb], den);
+        y_out[i] = taps[RADIUS][0][i];
         r_out[i] = r;
         g_out[i] = g;
         b_out[i] = b;
     }
+}
+
+/// The horizontal pass over a row of `n` pixels in planes: `row` the four planes with
+/// [`RADIUS`] reflected pixels either side (`n + 2 RADIUS` each, pixel `i` at `RADIUS + i`),
+/// `weights` room for [`row_weights_len`]`(n)` weights.
+#[inline(always)]
+pub(crate) fn pass_row<A: PlanarArithmetic>(
+    params: &A,
+    row: [&[A::D]; SPLIT],
+    out: [&mut [A::D]; SPLIT],
+    weights: &mut [A::W],
+) {
+    let n = out[0].len();
+    let stride = n + RADIUS;
+    // Row k - 1 holds, at t in 0..n + k, the weight between padded pixels RADIUS - k + t
+    // and RADIUS + t: pixel i's tap -k at t = i, its tap +k at t = i + k.
+    for k in 1..=RADIUS {
+        let (lo, hi) = (RADIUS - k, RADIUS);
+        weight_row(
+            params,
+            row.map(|plane| &plane[lo..lo + n + k]),
+            row.map(|plane| &plane[hi..hi + n + k]),
+            &mut weights[(k - 1) * stride..(k - 1) * stride + n + k],
+        );
+    }
+    let weights: &[A::W] = weights;
+    let of = |k: usize, t: usize| &weights[(k - 1) * stride + t..(k - 1) * stride + t + n];
+    let taps: [[&[A::D]; SPLIT]; TAPS] =
+        core::array::from_fn(|k| row.map(|plane| &plane[k..k + n]));
+    weighted_means::<A>(
+        taps,
+        core::array::from_fn(|j| match j {
+            j if j < RADIUS => of(RADIUS - j, 0),
+            j => of(j + 1 - RADIUS, j + 1 - RADIUS),
+        }),
+        out,
+    );
+}
+
+/// Rows of weights [`ColumnPass`] keeps: `k + 1` for offset `k`.
+pub(crate) const COLUMN_WEIGHT_ROWS: usize = RADIUS * (RADIUS + 3) / 2;
+
+/// The vertical pass down a frame, output row by output row, keeping each offset's weight
+/// row for the row below that needs it: the weight between rows `y` and `y + k`, computed
+/// for output row `y`'s tap `+k`, is output row `y + k`'s tap `-k`. Each slot is tagged with
+/// the pair it holds, so rows out of order (a band's first rows, a frame's reflected edges)
+/// compute what they lack and never read a stale row.
+pub(crate) struct ColumnPass<'s, W> {
+    /// [`COLUMN_WEIGHT_ROWS`] rows of `width`: offset `k`'s `k + 1` slots after offset
+    /// `k - 1`'s.
+    rows: &'s mut [W],
+    width: usize,
+    /// For offset `k` and slot `s`, the output row `u` whose pair (`u`, `u + k`) the slot
+    /// holds, or `usize::MAX`.
+    tags: [[usize; RADIUS + 1]; RADIUS],
+}
+
+impl<'s, W: Copy> ColumnPass<'s, W> {
+    /// A pass over rows `width` pixels wide, its weight rows in `rows` (at least
+    /// [`COLUMN_WEIGHT_ROWS`]` * width`).
+    pub(crate) fn new(rows: &'s mut [W], width: usize) -> Self {
+        Self {
+            rows,
+            width,
+            tags: [[usize::MAX; RADIUS + 1]; RADIUS],
+        }
+    }
+
+    /// The vertical pass for output row `y`: `taps[k]` the four planes of frame row `y + k -
+    /// RADIUS` (reflected), `out` the row's four planes.
+    #[inline(always)]
+    pub(crate) fn pass<A: PlanarArithmetic<W = W>>(
+        &mut self,
+        params: &A,
+        taps: [[&[A::D]; SPLIT]; TAPS],
+        y: usize,
+        out: [&mut [A::D]; SPLIT],
+    ) {
+        let w = self.width;
+        let first_slot = |k: usize| (k - 1) * (k + 2) / 2;
+        for k in 1..=RADIUS {
+            let slots = k + 1;
+            // Below: the pair (y, y + k), for this row and for row y + k.
+            let below = (first_slot(k) + y % slots) * w;
+            weight_row(
+                params,
+                taps[RADIUS],
+                taps[RADIUS + k],
+                &mut self.rows[below..below + w],
+            );
+            self.tags[k - 1][y % slots] = y;
+            // Above: the pair (y - k, y), computed for row y - k if that row ran, in the slot
+            // y - k takes (y + 1 is y - k modulo k + 1).
+            let above_slot = (y + 1) % slots;
+            let wanted = y.checked_sub(k).unwrap_or(usize::MAX);
+            if wanted == usize::MAX || self.tags[k - 1][above_slot] != wanted {
+                let above = (first_slot(k) + above_slot) * w;
+                weight_row(
+                    params,
+                    taps[RADIUS],
+                    taps[RADIUS - k],
+                    &mut self.rows[above..above + w],
+                );
+                self.tags[k - 1][above_slot] = wanted;
+            }
+        }
+        let rows: &[W] = self.rows;
+        let slot_row = |k: usize, slot: usize| {
+            let at = (first_slot(k) + slot) * w;
+            &rows[at..at + w]
+        };
+        weighted_means::<A>(
+            taps,
+            core::array::from_fn(|j| match j {
+                j if j < RADIUS => slot_row(RADIUS - j, (y + 1) % (RADIUS - j + 1)),
+                j => slot_row(j + 1 - RADIUS, y % (j + 2 - RADIUS)),
+            }),
+            out,
+        );
+    }
+}
+
+/// Weights [`pass_row`] needs for a row of `n` pixels.
+pub(crate) const fn row_weights_len(n: usize) -> usize {
+    RADIUS * (n + RADIUS)
 }
 
 #[cfg(test)]
@@ -517,6 +684,37 @@ mod tests {
         // (Reflected copies of a pixel are its own taps, so the mean is of equal values.)
         for (a, b) in out.iter().zip(&split) {
             assert!((a - b).abs() < 1e-6, "{a} {b}");
+        }
+    }
+
+    /// Both forms of the rounded quotient are the exact one (halves up) over the means'
+    /// whole domain's edges and a sweep of it, so every target gives the same means.
+    #[test]
+    fn rounded_quotients_are_exact_on_every_form() {
+        let exact = |num: i32, den: i32| {
+            // floor((2 num + den) / (2 den)), in i64.
+            (2 * i64::from(num) + i64::from(den)).div_euclid(2 * i64::from(den)) as i32
+        };
+        let mut rng = crate::math::xorshift(99);
+        let check = |num: i32, den: i32| {
+            let want = [exact(num, den); 3];
+            let nums = [num; 3];
+            assert_eq!(quotients_from_estimate(nums, den), want, "{num} / {den}");
+            assert_eq!(quotients_from_division(nums, den), want, "{num} / {den}");
+        };
+        for den in [4096, 4097, 8191, 12288, 28671, 28672] {
+            // Ties, their neighbours and the ends of the range.
+            for m in [-65535i32, -65534, -1, 0, 1, 2, 65534, 65535] {
+                for d in [-1, 0, 1] {
+                    check(m * den + den / 2 + d, den);
+                    check(m * den - den / 2 + d, den);
+                }
+            }
+        }
+        for _ in 0..1_000_000 {
+            let den = 4096 + (rng() % (6 * 4096 + 1)) as i32;
+            let num = (rng() % (2 * 65535 * den as u64 + 1)) as i64 - 65535 * i64::from(den);
+            check(num as i32, den);
         }
     }
 

@@ -46,7 +46,7 @@ use super::{
     Detail, FixedPipeline, FloatPipeline, Input, OutputSample, Path, RowWindow, CHUNK, IDENTITY,
     LUMA, LUMA_Q16,
 };
-use crate::chroma::{self, PlanarArithmetic, RADIUS, SPLIT, TAPS};
+use crate::chroma::{self, ColumnPass, PlanarArithmetic, COLUMN_WEIGHT_ROWS, RADIUS, SPLIT, TAPS};
 #[cfg(target_arch = "x86_64")]
 use crate::demosaic::directional::LANES_AVX512;
 use crate::demosaic::directional::{Arithmetic, OutputRow, Stream, HALO, LANES};
@@ -184,8 +184,16 @@ pub(super) trait Planar:
     fn split(e: [Self::P; 3]) -> [Self::Chroma; SPLIT];
     /// Luma from the chroma stage's rows in the encoded domain, for the sharpening.
     fn luma_of(y: Self::Chroma) -> Self::P;
-    /// Luma plus chroma plus detail, clamped, as an output sample.
-    fn combined<O: OutputSample>(y: Self::Chroma, c: Self::Chroma, detail: Self::Detail) -> O;
+    /// Luma plus chroma plus detail, clamped, as a value [`Planar::chroma_output_of`] takes
+    /// for `O`: its 8-bit code where `O` is 8-bit (so the rounding vectorises with the sum),
+    /// else the encoded value.
+    fn combined<O: OutputSample>(
+        y: Self::Chroma,
+        c: Self::Chroma,
+        detail: Self::Detail,
+    ) -> Self::Chroma;
+    /// A value from [`Planar::combined`] as an output sample.
+    fn chroma_output_of<O: OutputSample>(v: Self::Chroma) -> O;
 }
 
 /// `min(round(v * k / 2^16), 65535)` for a Q16 constant `k < 2^32` and `v < 2^16`, in `u32`
@@ -278,16 +286,6 @@ impl CcmSplit {
     fn apply(&self, rgb: [u16; 3]) -> [u16; 3] {
         let v = rgb.map(u32::from);
         [self.channel(0, v), self.channel(1, v), self.channel(2, v)]
-    }
-}
-
-/// A 16-bit code (`0..=65535`) at the output's depth: rounded to 8 bits, or as it is.
-#[inline(always)]
-fn code16_to<O: OutputSample>(v: u32) -> O {
-    match O::BITS {
-        // < 2^24 before the division.
-        8 => O::from_code((v * 255 + 32767) / 65535),
-        _ => O::from_code(v),
     }
 }
 
@@ -523,8 +521,18 @@ impl Planar for FixedPipeline<'_> {
     }
 
     #[inline(always)]
-    fn combined<O: OutputSample>(y: i32, c: i32, detail: i32) -> O {
-        code16_to::<O>((y + c + detail).clamp(0, 65535) as u32)
+    fn combined<O: OutputSample>(y: i32, c: i32, detail: i32) -> i32 {
+        let v = (y + c + detail).clamp(0, 65535);
+        match O::BITS {
+            // Rounded to 8 bits: < 2^24 before the division.
+            8 => (v * 255 + 32767) / 65535,
+            _ => v,
+        }
+    }
+
+    #[inline(always)]
+    fn chroma_output_of<O: OutputSample>(v: i32) -> O {
+        O::from_code(v as u32)
     }
 }
 
@@ -742,8 +750,10 @@ impl Planar for FloatPipeline<'_> {
     fn sharpened<O: OutputSample>(e: f32, detail: f32) -> f32 {
         let v = (e + detail).clamp(0.0, 1.0);
         match O::BITS {
-            // `OutputSample::from_encoded` for `u8`: a half added, truncated.
-            8 => ((v * 255.0 + 0.5) as u32) as f32,
+            // `OutputSample::from_encoded` for `u8`: a half added, truncated (`as i32`, whose
+            // conversion x86 has in vector form, as it lacks `as u32`'s: the same for
+            // `[0.5, 255.5]`).
+            8 => ((v * 255.0 + 0.5) as i32) as f32,
             _ => v,
         }
     }
@@ -751,7 +761,7 @@ impl Planar for FloatPipeline<'_> {
     #[inline(always)]
     fn output_of<O: OutputSample>(v: f32) -> O {
         match O::BITS {
-            8 => O::from_code(v as u32),
+            8 => O::from_code(v as i32 as u32),
             _ => O::from_encoded(v),
         }
     }
@@ -772,8 +782,13 @@ impl Planar for FloatPipeline<'_> {
     }
 
     #[inline(always)]
-    fn combined<O: OutputSample>(y: f32, c: f32, detail: f32) -> O {
-        O::from_encoded((y + c + detail).clamp(0.0, 1.0))
+    fn combined<O: OutputSample>(y: f32, c: f32, detail: f32) -> f32 {
+        Self::sharpened::<O>(y + c, detail)
+    }
+
+    #[inline(always)]
+    fn chroma_output_of<O: OutputSample>(v: f32) -> O {
+        Self::output_of::<O>(v)
     }
 }
 
@@ -919,8 +934,10 @@ impl Shape {
             Detail::Chroma => {
                 let split = w.checked_add(2 * RADIUS)?.checked_mul(SPLIT)?;
                 let ring = w.checked_add(2 * CHROMA_PAD)?.checked_mul(SPLIT * TAPS)?;
-                // The vertical pass's output and the passes' running sums.
-                let out = w.checked_mul(2 * SPLIT)?;
+                // The vertical pass's output and both passes' weights.
+                let out = w
+                    .checked_mul(SPLIT + COLUMN_WEIGHT_ROWS)?
+                    .checked_add(chroma::row_weights_len(w.checked_add(RADIUS)?))?;
                 add(typed_len::<P, C>(
                     split.checked_add(ring)?.checked_add(out)?,
                 ))?;
@@ -1792,7 +1809,8 @@ fn emit_rows<A: Planar, O: OutputSample>(
             let (split, rest) = chroma_part.split_at_mut(split_len);
             let (ring, rest) = rest.split_at_mut(TAPS * slot_len);
             let (vertical, rest) = rest.split_at_mut(SPLIT * w);
-            let sums = &mut rest[..SPLIT * w];
+            let (row_weights, rest) = rest.split_at_mut(chroma::row_weights_len(w));
+            let mut column = ColumnPass::new(&mut rest[..COLUMN_WEIGHT_ROWS * w], w);
             let mut window = RowWindow::default();
             for y in rows.clone() {
                 let taps: [usize; TAPS] =
@@ -1811,14 +1829,14 @@ fn emit_rows<A: Planar, O: OutputSample>(
                             halves,
                             split,
                             &mut ring[slot * slot_len..(slot + 1) * slot_len],
-                            sums,
+                            row_weights,
                         );
                     }
                 }
                 let ring: &[A::Chroma] = ring;
                 let rows_k: [&[A::Chroma]; TAPS] =
                     taps.map(|v| &ring[(v % TAPS) * slot_len..(v % TAPS + 1) * slot_len]);
-                chroma_vertical::<A>(&params, rows_k, w, vertical, sums);
+                chroma_vertical::<A>(&params, &mut column, rows_k, y, w, vertical);
                 chroma_output::<A, O>(
                     path.sharpening(),
                     [rows_k[RADIUS - 1], rows_k[RADIUS], rows_k[RADIUS + 1]],
@@ -1993,7 +2011,7 @@ fn chroma_horizontal<A: Planar>(
     halves: Halves,
     split: &mut [A::Chroma],
     slot: &mut [A::Chroma],
-    sums: &mut [A::Chroma],
+    weights: &mut [A::Chroma],
 ) {
     let w = halves.even + halves.odd;
     for v in planes[..3 * w].iter_mut() {
@@ -2028,24 +2046,22 @@ fn chroma_horizontal<A: Planar>(
             }
         }
     }
-    let taps: [[&[A::Chroma]; SPLIT]; TAPS] = core::array::from_fn(|k| {
-        core::array::from_fn(|c| &split[c * stride + k..c * stride + k + w])
-    });
+    let row: [&[A::Chroma]; SPLIT] = core::array::from_fn(|c| &split[c * stride..(c + 1) * stride]);
     let out_stride = w + 2 * CHROMA_PAD;
     let (o0, rest) = slot.split_at_mut(out_stride);
     let (o1, rest) = rest.split_at_mut(out_stride);
     let (o2, o3) = rest.split_at_mut(out_stride);
     let o3 = &mut o3[..out_stride];
-    chroma::pass_planes(
+    chroma::pass_row(
         params,
-        taps,
+        row,
         [
             &mut o0[CHROMA_PAD..CHROMA_PAD + w],
             &mut o1[CHROMA_PAD..CHROMA_PAD + w],
             &mut o2[CHROMA_PAD..CHROMA_PAD + w],
             &mut o3[CHROMA_PAD..CHROMA_PAD + w],
         ],
-        sums,
+        weights,
     );
     for plane in [o0, o1, o2, o3] {
         plane[0] = plane[CHROMA_PAD + reflect(-1, w)];
@@ -2053,15 +2069,16 @@ fn chroma_horizontal<A: Planar>(
     }
 }
 
-/// The chroma stage's vertical pass for the middle of `rows` (seven ring rows) into
-/// `vertical` (four planes of `w`).
+/// The chroma stage's vertical pass for output row `y`, the middle of `rows` (seven ring
+/// rows), into `vertical` (four planes of `w`).
 #[inline(always)]
 fn chroma_vertical<A: Planar>(
     params: &A::ChromaParams,
+    column: &mut ColumnPass<'_, A::Chroma>,
     rows: [&[A::Chroma]; TAPS],
+    y: usize,
     w: usize,
     vertical: &mut [A::Chroma],
-    sums: &mut [A::Chroma],
 ) {
     let stride = w + 2 * CHROMA_PAD;
     let taps: [[&[A::Chroma]; SPLIT]; TAPS] = rows.map(|row| {
@@ -2070,32 +2087,48 @@ fn chroma_vertical<A: Planar>(
     let (o0, rest) = vertical.split_at_mut(w);
     let (o1, rest) = rest.split_at_mut(w);
     let (o2, o3) = rest.split_at_mut(w);
-    chroma::pass_planes(params, taps, [o0, o1, o2, &mut o3[..w]], sums);
+    column.pass(params, taps, y, [o0, o1, o2, &mut o3[..w]]);
 }
 
 /// Luma plus filtered chroma (plus the sharpening's detail from the luma of the ring rows
-/// above, at and below, `around`) into an interleaved output row.
+/// above, at and below, `around`) into an interleaved output row: the values first, in
+/// place in `vertical`'s chroma planes (a loop that vectorises), then interleaved.
 #[inline(always)]
 fn chroma_output<A: Planar, O: OutputSample>(
     sharpen: Option<A::Sharpen>,
     around: [&[A::Chroma]; 3],
-    vertical: &[A::Chroma],
+    vertical: &mut [A::Chroma],
     w: usize,
     out: &mut [O],
 ) {
-    let [y, r, g, b] = [0, 1, 2, 3].map(|c| &vertical[c * w..(c + 1) * w]);
-    for (x, px) in out.chunks_exact_mut(3).enumerate().take(w) {
-        let detail = match sharpen {
-            Some(amount) => {
-                // Luma planes are the rows' first planes; column x is at x + CHROMA_PAD.
-                let luma = around.map(|row| [x, x + 1, x + 2].map(|i| A::luma_of(row[i])));
-                A::detail(amount, luma)
+    let (y, rest) = vertical.split_at_mut(w);
+    let (r, rest) = rest.split_at_mut(w);
+    let (g, b) = rest.split_at_mut(w);
+    let b = &mut b[..w];
+    match sharpen {
+        Some(amount) => {
+            // Luma planes are the rows' first planes; column x is at x + CHROMA_PAD.
+            let [up, mid, down] = around.map(|row| &row[..w + 2 * CHROMA_PAD]);
+            for x in 0..w {
+                let luma = [up, mid, down].map(|row| [x, x + 1, x + 2].map(|i| A::luma_of(row[i])));
+                let detail = A::detail(amount, luma);
+                r[x] = A::combined::<O>(y[x], r[x], detail);
+                g[x] = A::combined::<O>(y[x], g[x], detail);
+                b[x] = A::combined::<O>(y[x], b[x], detail);
             }
-            None => A::no_detail(),
-        };
-        px[0] = A::combined::<O>(y[x], r[x], detail);
-        px[1] = A::combined::<O>(y[x], g[x], detail);
-        px[2] = A::combined::<O>(y[x], b[x], detail);
+        }
+        None => {
+            for x in 0..w {
+                r[x] = A::combined::<O>(y[x], r[x], A::no_detail());
+                g[x] = A::combined::<O>(y[x], g[x], A::no_detail());
+                b[x] = A::combined::<O>(y[x], b[x], A::no_detail());
+            }
+        }
+    }
+    for (((px, r), g), b) in out.chunks_exact_mut(3).zip(&*r).zip(&*g).zip(&*b) {
+        px[0] = A::chroma_output_of::<O>(*r);
+        px[1] = A::chroma_output_of::<O>(*g);
+        px[2] = A::chroma_output_of::<O>(*b);
     }
 }
 
