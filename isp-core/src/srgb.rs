@@ -304,6 +304,52 @@ impl Default for EncodeThresholds8 {
     }
 }
 
+/// The smallest bit pattern in `lo..=hi` that `reaches` (a predicate false then true along
+/// the range, true at `hi`), searched from `guess`: a bracket around it grown by doubling
+/// steps, then bisection. The same answer as a bisection over the whole range, in about
+/// `2 log2(distance from the guess)` evaluations.
+fn first_reaching(lo: u32, hi: u32, guess: u32, reaches: impl Fn(u32) -> bool) -> u32 {
+    let guess = guess.clamp(lo, hi);
+    let (mut a, mut b) = (lo, hi);
+    let mut step = 4u32;
+    if reaches(guess) {
+        b = guess;
+        // The answer is at or below b: step down until a pattern does not reach.
+        while b - lo > step {
+            let c = b - step;
+            if reaches(c) {
+                b = c;
+                step = step.saturating_mul(2);
+            } else {
+                a = c + 1;
+                break;
+            }
+        }
+    } else {
+        a = (guess + 1).min(hi);
+        // The answer is above the guess: step up until a pattern reaches.
+        while hi - a > step {
+            let c = a + step;
+            if reaches(c) {
+                b = c;
+                break;
+            }
+            a = c + 1;
+            step = step.saturating_mul(2);
+        }
+    }
+    // The smallest in a..=b that reaches (b does, or is hi).
+    while a < b {
+        let mid = a + (b - a) / 2;
+        if reaches(mid) {
+            b = mid;
+        } else {
+            a = mid + 1;
+        }
+    }
+    a
+}
+
 /// The exact 8-bit code of linear `x`: the float path's definition.
 #[inline]
 pub fn exact_code8(x: f32) -> u8 {
@@ -311,25 +357,26 @@ pub fn exact_code8(x: f32) -> u8 {
 }
 
 impl EncodeThresholds8 {
-    /// The thresholds, from 255 bisections of about 30 steps each over the exact curve.
+    /// The thresholds, each searched for over the exact curve from an estimate: the estimated
+    /// decoding of the code's lower edge (an [`math::pow_estimate`], not a power), a bracket
+    /// grown from it by doubling steps, then bisection inside it. The same thresholds as a
+    /// bisection over all of `[0, 1]` (about 30 exact evaluations each, 1.8 million
+    /// instructions on a Cortex-M4 for the 255) in about a third of the evaluations.
     pub fn new() -> Self {
         let one = 1.0f32.to_bits();
         let mut thresholds = [0.0f32; 257];
         thresholds[256] = f32::INFINITY;
         let mut lo_bits = 0u32;
         for (k, t) in thresholds.iter_mut().enumerate().take(256).skip(1) {
-            // The smallest bit pattern in lo_bits..=one whose code reaches k (1.0's is 255).
-            let (mut lo, mut hi) = (lo_bits, one);
-            while lo < hi {
-                let mid = lo + (hi - lo) / 2;
-                if usize::from(exact_code8(f32::from_bits(mid))) >= k {
-                    hi = mid;
-                } else {
-                    lo = mid + 1;
-                }
-            }
-            *t = f32::from_bits(lo);
-            lo_bits = lo;
+            let edge = (k as f32 - 0.5) / 255.0;
+            let guess = if edge <= ENCODED_THRESHOLD {
+                edge / 12.92
+            } else {
+                math::pow_estimate((edge + 0.055) / 1.055, 2.4).0
+            };
+            let reaches = |bits: u32| usize::from(exact_code8(f32::from_bits(bits))) >= k;
+            lo_bits = first_reaching(lo_bits, one, guess.to_bits(), reaches);
+            *t = f32::from_bits(lo_bits);
         }
         let mut bucket = [255u8; BUCKET_SLOTS];
         let mut code = 0usize;
@@ -378,7 +425,49 @@ impl EncodeThresholds8 {
 
 #[cfg(test)]
 mod tests {
-    use super::{encode_estimated, tables, EncodeLut, LINEAR_THRESHOLD};
+    use super::{
+        encode_estimated, exact_code8, first_reaching, tables, EncodeLut, EncodeThresholds8,
+        LINEAR_THRESHOLD,
+    };
+
+    /// The thresholds searched from estimates are those a bisection over the whole of
+    /// `[0, 1]` finds, and the search from any guess finds what the plain bisection does.
+    #[test]
+    fn thresholds_match_a_whole_range_bisection() {
+        let one = 1.0f32.to_bits();
+        let table = EncodeThresholds8::new().thresholds();
+        let mut lo_bits = 0u32;
+        for (k, t) in table.iter().enumerate() {
+            let k = k + 1;
+            let (mut lo, mut hi) = (lo_bits, one);
+            while lo < hi {
+                let mid = lo + (hi - lo) / 2;
+                if usize::from(exact_code8(f32::from_bits(mid))) >= k {
+                    hi = mid;
+                } else {
+                    lo = mid + 1;
+                }
+            }
+            assert_eq!(t.to_bits(), lo, "code {k}");
+            lo_bits = lo;
+        }
+        // Any guess, near or far, below or above, and the range's ends.
+        let answer = 1_000_003u32;
+        for guess in [
+            0,
+            1,
+            999_000,
+            1_000_002,
+            answer,
+            1_000_004,
+            1_100_000,
+            u32::MAX,
+        ] {
+            assert_eq!(first_reaching(0, 2_000_000, guess, |b| b >= answer), answer);
+        }
+        assert_eq!(first_reaching(5, 9, 0, |_| true), 5);
+        assert_eq!(first_reaching(5, 9, 7, |b| b >= 9), 9);
+    }
 
     /// The build script's static tables are the curve's: every entry evaluated again here.
     #[test]
