@@ -317,11 +317,17 @@ impl FixedParams {
         let strength = check_strength(strength)?;
         let by_colour = stabilisers(profile);
         let mut tables = [[0u32; KNOTS]; 3];
-        for (table, stab) in tables.iter_mut().zip(&by_colour) {
-            for (i, knot) in table.iter_mut().enumerate() {
+        for c in 0..3 {
+            // A colour with the same transform as an earlier one (a profile uniform over the
+            // colours, as most are) copies its table: a third of the start-up each.
+            if let Some(same) = (0..c).find(|&e| by_colour[e] == by_colour[c]) {
+                tables[c] = tables[same];
+                continue;
+            }
+            for (i, knot) in tables[c].iter_mut().enumerate() {
                 let x = (knot_input(i) as f32 / 65535.0).min(1.0);
                 // At most 256 / sqrt(Q) = 2^20.
-                *knot = (stab.apply(x) * FIXED_SCALE + 0.5) as u32;
+                *knot = (by_colour[c].apply(x) * FIXED_SCALE + 0.5) as u32;
             }
         }
         // 2^23 / span: an excess of `span` (in 1/256 of a variance) drops u by 2^15 << 16.
