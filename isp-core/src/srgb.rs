@@ -358,7 +358,7 @@ pub fn exact_code8(x: f32) -> u8 {
 
 impl EncodeThresholds8 {
     /// The thresholds, each searched for over the exact curve from an estimate: the estimated
-    /// decoding of the code's lower edge (an [`math::pow_estimate`], not a power), a bracket
+    /// decoding of the code's lower edge (a vectorisable power estimate, not `powf`), a bracket
     /// grown from it by doubling steps, then bisection inside it. The same thresholds as a
     /// bisection over all of `[0, 1]` (about 30 exact evaluations each, 1.8 million
     /// instructions on a Cortex-M4 for the 255) in about a third of the evaluations.
