@@ -614,11 +614,12 @@ impl<'s, W: Copy> ColumnPass<'s, W> {
         out: [&mut [A::D]; SPLIT],
     ) {
         let w = self.width;
-        let first_slot = |k: usize| (k - 1) * (k + 2) / 2;
+        // Where offset k's slot `slot` starts: offset k - 1's k slots come before it.
+        let at = |k: usize, slot: usize| ((k - 1) * (k + 2) / 2 + slot) * w;
         for k in 1..=RADIUS {
             let slots = k + 1;
             // Below: the pair (y, y + k), for this row and for row y + k.
-            let below = (first_slot(k) + y % slots) * w;
+            let below = at(k, y % slots);
             weight_row(
                 params,
                 taps[RADIUS],
@@ -631,7 +632,7 @@ impl<'s, W: Copy> ColumnPass<'s, W> {
             let above_slot = (y + 1) % slots;
             let wanted = y.checked_sub(k).unwrap_or(usize::MAX);
             if wanted == usize::MAX || self.tags[k - 1][above_slot] != wanted {
-                let above = (first_slot(k) + above_slot) * w;
+                let above = at(k, above_slot);
                 weight_row(
                     params,
                     taps[RADIUS],
@@ -642,10 +643,7 @@ impl<'s, W: Copy> ColumnPass<'s, W> {
             }
         }
         let rows: &[W] = self.rows;
-        let slot_row = |k: usize, slot: usize| {
-            let at = (first_slot(k) + slot) * w;
-            &rows[at..at + w]
-        };
+        let slot_row = |k: usize, slot: usize| &rows[at(k, slot)..at(k, slot) + w];
         weighted_means::<A>(
             taps,
             core::array::from_fn(|j| match j {

@@ -937,7 +937,8 @@ impl Shape {
                 // The vertical pass's output and both passes' weights.
                 let out = w
                     .checked_mul(SPLIT + COLUMN_WEIGHT_ROWS)?
-                    .checked_add(chroma::row_weights_len(w.checked_add(RADIUS)?))?;
+                    // chroma::row_weights_len(w), checked.
+                    .checked_add(w.checked_add(RADIUS)?.checked_mul(RADIUS)?)?;
                 add(typed_len::<P, C>(
                     split.checked_add(ring)?.checked_add(out)?,
                 ))?;
