@@ -15,6 +15,9 @@
 //! - [`noise_estimate`]: a raw frame's noise profile estimated from the frame (Foi et al.
 //!   2008), for raws whose file states none.
 //! - [`suite`]: the benchmark suites, charted (`camsim bench` without a subcommand).
+//! - [`tune`]: a camera's tuning from its captures (black level, noise profile, defects, lens
+//!   shading, white-balance locus, colour matrices), and capture sets shot with a simulated
+//!   camera to check it against (`camsim tune`, `camsim tune-captures`).
 //!
 //! Errors are [`Error`] values; quality figures come from [`isp_core::metrics`].
 #![warn(missing_docs)]
@@ -28,5 +31,6 @@ mod error;
 pub mod isp_options;
 pub mod noise_estimate;
 pub mod suite;
+pub mod tune;
 
 pub use error::Error;

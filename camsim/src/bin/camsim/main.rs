@@ -11,7 +11,7 @@ mod cli_args;
 mod commands;
 mod progress;
 
-use commands::{bench, calibrate, dataset, demo, demosaic, dof, isp, render};
+use commands::{bench, calibrate, dataset, demo, demosaic, dof, isp, render, tune};
 
 #[derive(Parser)]
 #[command(
@@ -43,6 +43,12 @@ enum Command {
     /// Fit a camera's colour matrix on a rendered ColorChecker (under A and D65 by default)
     /// and write it for camsim isp and camsim demo.
     Calibrate(calibrate::CalibrateArgs),
+    /// Tune a camera from its captures (charts, flat fields, darks, photon-transfer pairs named
+    /// as Raspberry Pi's tuning tool names them): black level, noise profile, defects, lens
+    /// shading, white-balance locus, colour matrices; writes a tuning file (TOML).
+    Tune(Box<tune::TuneArgs>),
+    /// Shoot a tuning capture set with a simulated camera whose every parameter is known.
+    TuneCaptures(Box<tune::TuneCapturesArgs>),
     /// Render a synthetic raw dataset from a spec: each sample (raw DNG, truth EXRs, record)
     /// a pure function of (spec, seed, index), written atomically; --index, --range or --shard
     /// for one worker's share; --index-manifest gathers and checks a finished one.
@@ -70,6 +76,8 @@ fn main() -> ExitCode {
         Command::Render(args) => render::run(args),
         Command::Demo(args) => demo::run(args),
         Command::Calibrate(args) => calibrate::run(args),
+        Command::Tune(args) => tune::run(args),
+        Command::TuneCaptures(args) => tune::run_captures(args),
         Command::Dataset(args) => dataset::run(args),
         Command::Bench(args) => bench::run(args),
     };

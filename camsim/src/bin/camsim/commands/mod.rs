@@ -9,3 +9,4 @@ pub mod demosaic;
 pub mod dof;
 pub mod isp;
 pub mod render;
+pub mod tune;
