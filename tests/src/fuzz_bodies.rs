@@ -285,3 +285,44 @@ pub fn scene_file(data: &[u8]) {
 /// DNG files: the body lives with the decoder in raw-formats, so the `dng_decode` fuzz target
 /// depends on that library alone; re-exported here for the replayed corpus and the suite.
 pub use raw_formats::fuzzing::{dct_jpeg_decode, dng_decode, lossless_jpeg_decode, opcode_list};
+
+/// ColorChecker detection on an arbitrary frame (`camsim tune`): a chart or a reason, never a
+/// panic; found corners are finite and the patches they give can be sampled. Bytes 0 and 1
+/// set the size (up to 200 x 200), byte 2 the pattern, bytes 3-4 the black level; the rest,
+/// repeated, are the samples (blocks of a byte's value, so flat regions occur).
+pub fn chart_detection(data: &[u8]) {
+    use camsim::tune::chart::{detect, sample_patches, ChartMap, Mosaic};
+    if data.len() < 6 {
+        return;
+    }
+    let width = usize::from(data[0]) % 200 + 1;
+    let height = usize::from(data[1]) % 200 + 1;
+    let pattern = isp_core::CfaPattern::ALL[usize::from(data[2]) % 4];
+    let black = f64::from(u16::from_le_bytes([data[3], data[4]]) % 4096);
+    let body = &data[5..];
+    let block = 1 + usize::from(body[0]) % 16;
+    let samples: Vec<u16> = (0..width * height)
+        .map(|i| {
+            let (x, y) = (i % width / block, i / width / block);
+            u16::from(body[(x * 7 + y * 13) % body.len()]) * 16
+        })
+        .collect();
+    let mosaic = Mosaic {
+        samples: &samples,
+        width,
+        height,
+        pattern,
+        black: [black; 4],
+        white: 4095.0,
+    };
+    if let Ok(corners) = detect(&mosaic) {
+        assert!(
+            corners.iter().flatten().all(|v| v.is_finite()),
+            "{corners:?}"
+        );
+        if let Some(map) = ChartMap::from_corners(&corners) {
+            let patches = sample_patches(&mosaic, &map, 0.3);
+            assert_eq!(patches.len(), 24);
+        }
+    }
+}

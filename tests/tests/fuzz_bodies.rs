@@ -102,6 +102,9 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(1000))]
 
     #[test]
+    fn chart_frames(data in proptest::collection::vec(any::<u8>(), 6..300)) { chart_detection(&data); }
+
+    #[test]
     fn scene_bytes(data in proptest::collection::vec(any::<u8>(), 0..200)) { scene_file(&data); }
 
     #[test]
