@@ -459,6 +459,32 @@ pub struct Prepared<'a> {
     pub noise: Noise,
 }
 
+/// `options` with its tuning file's settings under them ([`crate::tune::options_for`]): an
+/// automatic white balance (`--awb`, grey world when none is asked) is estimated and moved
+/// into the tuning's locus; fixed gains (`--wb`) stay as given. Returns what the tuning chose.
+fn apply_tuning(
+    options: IspOptions,
+    raw: &RawImage,
+) -> Result<(IspOptions, Option<crate::tune::Applied>), Error> {
+    let Some(path) = options.tuning.clone() else {
+        return Ok((options, None));
+    };
+    let text =
+        std::fs::read_to_string(&path).map_err(|e| raw_formats::FormatError::io(&path, e))?;
+    let tuning = crate::tune::Tuning::from_toml(&text).map_err(|e| e.in_file(&path))?;
+    let method = match options.white_balance {
+        Some(WhiteBalance::Auto(m)) => m,
+        _ => isp_core::wb::AwbMethod::GreyWorld,
+    };
+    let applied =
+        crate::tune::options_for(&tuning, raw, method, None).map_err(|e| e.in_file(&path))?;
+    let mut options = options;
+    if matches!(options.white_balance, Some(WhiteBalance::Auto(_))) {
+        options.white_balance = None;
+    }
+    Ok((options.or(applied.options.clone()), Some(applied)))
+}
+
 /// Resolves `options` (each unset option from the file's defaults, then the built-in
 /// default) and `calibration` for `input` as [`develop`] does, runs AWB if asked, and hands
 /// the result to `then` (the configuration borrows what this function builds).
@@ -468,7 +494,9 @@ pub fn with_prepared<R>(
     calibration: Option<Calibration>,
     then: impl FnOnce(Prepared<'_>) -> Result<R, Error>,
 ) -> Result<R, Error> {
-    let options = options.clone().or(input.defaults.clone());
+    // A tuning file sits under the options given and over the file's own tags.
+    let (options, tuned) = apply_tuning(options.clone(), &input.raw)?;
+    let options = options.or(input.defaults.clone());
     let calibration = calibration.or(input.calibration);
     let image = &input.raw;
     let linear = image.is_linear();
@@ -526,7 +554,12 @@ pub fn with_prepared<R>(
             .into()
     };
 
-    let mut awb = None;
+    // The tuning's white balance is reported as the AWB's: the locus's gains and CCT.
+    let mut awb = tuned.map(|t| AwbEstimate {
+        gains: t.gains,
+        neutral: t.gains.map(|g| 1.0 / g),
+        cct_k: t.cct,
+    });
     let wb_gains = match options.white_balance {
         Some(WhiteBalance::Gains(g)) => g,
         Some(WhiteBalance::Auto(method)) => {

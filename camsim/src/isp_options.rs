@@ -208,6 +208,9 @@ pub struct IspOptions {
     pub sharpen: Option<f32>,
     /// Chroma noise reduction's strength in `[0, 4]` (0 is off).
     pub chroma_denoise: Option<f32>,
+    /// A tuning file from `camsim tune`, applied under every other option
+    /// ([`crate::tune::options_for`]).
+    pub tuning: Option<std::path::PathBuf>,
 }
 
 /// Which part of the raw's active area the developed image shows.
@@ -259,6 +262,7 @@ impl IspOptions {
             highlight_knee: self.highlight_knee.or(fallback.highlight_knee),
             sharpen: self.sharpen.or(fallback.sharpen),
             chroma_denoise: self.chroma_denoise.or(fallback.chroma_denoise),
+            tuning: self.tuning.or(fallback.tuning),
         }
     }
 }
@@ -593,6 +597,11 @@ pub fn from_toml(text: &str, file: &Path) -> Result<IspOptions> {
             "highlight-knee" => options.highlight_knee = Some(f.scalar()? as f32),
             "sharpen" => options.sharpen = Some(f.scalar()? as f32),
             "chroma-denoise" => options.chroma_denoise = Some(f.scalar()? as f32),
+            // Relative to the config file, as a user writing one beside the other expects.
+            "tuning" => {
+                let dir = file.parent().unwrap_or(std::path::Path::new("."));
+                options.tuning = Some(dir.join(f.string()?));
+            }
             other => {
                 return Err(f.error(format!(
                     "unknown key {other:?}; known keys: {}",

@@ -338,6 +338,86 @@ fn check_colour(tuned: &Tuned, truth: &simulate::CaptureTruth, held: &Path, name
     assert!(mean <= 2.0, "{name}: held-out mean CIEDE2000 {mean}");
 }
 
+/// `camsim isp --tuning`'s options ([`tune::options_for`]) develop the held-out chart: the
+/// patches of the 8-bit output, decoded, against the chart under D50 adapted to D65, with the
+/// tuning and with the plain defaults (grey world, no shading correction, no matrix).
+fn check_isp_uses_it(
+    tuned: &Tuned,
+    truth: &simulate::CaptureTruth,
+    held: &Path,
+    spec: &simulate::CaptureSetSpec,
+    name: &str,
+) {
+    use camsim::develop::{develop, RawInput, RunOptions};
+    use camsim::isp_options::{IspOptions, WhiteBalance};
+    let input = RawInput::read(held).unwrap();
+    let applied = tune::options_for(
+        &tuned.tuning,
+        &input.raw,
+        isp_core::wb::AwbMethod::GreyWorld,
+        Some(100.0),
+    )
+    .unwrap();
+    let illuminants = Table::parse(host_tracer::spectra::ILLUMINANTS).unwrap();
+    let target = reference::chart_srgb(illuminants.named("illuminant", HELD_OUT).unwrap()).unwrap();
+    let map = spec.chart.map(spec.width, spec.height);
+    let score = |options: &IspOptions| -> f64 {
+        let run = RunOptions {
+            threads: 1,
+            stage_times: false,
+        };
+        let (_, image) = develop(&input, options, None, run).unwrap();
+        let pitch = map.pitch_px();
+        let patches: Vec<[f64; 3]> = (0..24)
+            .map(|i| {
+                let [cx, cy] = map.patch_centre(i);
+                let r = (0.2 * pitch) as isize;
+                let mut sum = [0.0; 3];
+                let mut n = 0.0;
+                for dy in -r..=r {
+                    for dx in -r..=r {
+                        let (x, y) = ((cx as isize + dx) as usize, (cy as isize + dy) as usize);
+                        for c in 0..3 {
+                            let v =
+                                f32::from(image.data[3 * (y * image.width + x) + c] as u8) / 255.0;
+                            sum[c] += f64::from(isp_core::srgb::decode(v));
+                        }
+                        n += 1.0;
+                    }
+                }
+                sum.map(|v| v / n)
+            })
+            .collect();
+        // The exposure is the ISP's gain, not the tuning's: the best scale over the greys.
+        let (mut num, mut den) = (0.0, 0.0);
+        for &g in &chart::NEUTRALS[1..5] {
+            num += patches[g][1] * target[g][1];
+            den += patches[g][1] * patches[g][1];
+        }
+        let e = fit::ccm_errors(
+            &[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            num / den,
+            &patches,
+            &target,
+        );
+        e.iter().sum::<f64>() / 24.0
+    };
+    let plain = IspOptions {
+        white_balance: Some(WhiteBalance::Auto(isp_core::wb::AwbMethod::GreyWorld)),
+        black_level: Some(vec![truth.black]),
+        ..IspOptions::default()
+    };
+    let (with, without) = (score(&applied.options), score(&plain));
+    println!(
+        "{name} held out {HELD_OUT} through the ISP: locus {:.0} K, output mean CIEDE2000 {with:.2} with the tuning, {without:.2} without",
+        applied.cct
+    );
+    assert!(
+        with < 3.0 && with < 0.5 * without,
+        "{name}: {with} with the tuning, {without} without"
+    );
+}
+
 #[test]
 fn tuning_recovers_the_simulated_cameras() {
     for camera in cameras() {
@@ -368,6 +448,7 @@ fn tuning_recovers_the_simulated_cameras() {
         check_defects(&tuned, &truth, &camera.spec, name);
         check_shading(&tuned, &truth, &camera.spec, name);
         check_colour(&tuned, &truth, &held, name);
+        check_isp_uses_it(&tuned, &truth, &held, &camera.spec, name);
 
         // Without photon-transfer pairs the noise comes from the chart patches: within 20 %.
         for f in &truth.files {

@@ -382,7 +382,9 @@ def develop(
     - ``pattern`` (``"RGGB"``, ``"BGGR"``, ``"GRBG"``, ``"GBRG"``), ``black_level`` (one value,
       four per 2x2 position, or three for linear RGB), ``white_level``, ``gain``;
     - ``wb`` (three gains) or ``awb`` (one of :data:`AWB_METHODS`); ``ccm`` (3x3, camera RGB
-      to linear sRGB) or ``calibration`` (a ``camsim calibrate`` file);
+      to linear sRGB) or ``calibration`` (a ``camsim calibrate`` file); ``tuning`` (a
+      ``camsim tune`` file: black level, defects, noise, shading, the white balance through
+      its locus and the matrix at that colour temperature, under every other option);
     - ``demosaic`` (``"nearest"``, ``"bilinear"``, ``"mhc"``, ``"directional"``, the default);
     - ``denoise`` and ``chroma_denoise`` (strengths in [0, 4]), ``denoise_search``
       (``"wide"``, the default 5x5 search, or ``"fast"``, 3x3), ``noise_profile`` (S, O or

@@ -23,7 +23,7 @@ use crate::raw::{samples, RawFile};
 
 /// The options `develop` takes, by their Python names (the command line's flags with `_` for
 /// `-`), in the order the documentation lists them.
-const KEYS: [&str; 30] = [
+const KEYS: [&str; 31] = [
     "pattern",
     "bits",
     "black_level",
@@ -33,6 +33,7 @@ const KEYS: [&str; 30] = [
     "awb",
     "ccm",
     "calibration",
+    "tuning",
     "demosaic",
     "denoise",
     "denoise_search",
@@ -136,6 +137,9 @@ fn settings(kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<Settings> {
                 let file = raw_formats::calibration::CalibrationFile::read(&path)
                     .map_err(errors::format)?;
                 s.calibration = Some(file.to_isp().map_err(errors::format)?);
+            }
+            "tuning" => {
+                o.tuning = Some(value(&v, k, "the path of a tuning file from camsim tune")?)
             }
             "demosaic" => {
                 o.demosaic = Some(

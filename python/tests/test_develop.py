@@ -245,3 +245,23 @@ def test_calibration_file_equals_the_command_lines(small_dng: pathlib.Path, tmp_
         assert np.array_equal(ours, read_ppm(out)), path
     with pytest.raises(FileNotFoundError):
         camsim.imread(small_dng).postprocess(calibration=tmp_path / "none.toml")
+
+
+def test_tuning_file_equals_the_command_lines(tmp_path: pathlib.Path) -> None:
+    """`tuning=` develops as `camsim isp --tuning` and a config file's `tuning` key do."""
+    captures = tmp_path / "captures"
+    run_cli("tune-captures", "--out", str(captures))
+    tuning = tmp_path / "tuning.toml"
+    run_cli("tune", "--captures", str(captures), "--out", str(tuning))
+    chart = captures / "chart_D65_6499k_1000l.dng"
+    cli = tmp_path / "cli.ppm"
+    run_cli("isp", "--input", str(chart), "--output", str(cli), "--tuning", str(tuning))
+    config = tmp_path / "isp.toml"
+    config.write_text('tuning = "tuning.toml"\n')
+    from_config = tmp_path / "config.ppm"
+    run_cli("isp", "--input", str(chart), "--output", str(from_config), "--config", str(config))
+    ours = camsim.imread(chart).postprocess(tuning=tuning)
+    assert np.array_equal(ours, read_ppm(cli))
+    assert np.array_equal(ours, read_ppm(from_config))
+    # The tuning changes the development: not the plain defaults.
+    assert not np.array_equal(ours, camsim.imread(chart).postprocess())

@@ -33,7 +33,7 @@
 //!    and defects, the light's colour from the five brighter greys;
 //! 6. the white-balance locus through the lights' colours and its transverse bounds;
 //! 7. a colour matrix per colour temperature: white-balanced camera RGB to linear sRGB, rows
-//!    summing to one, the mean CIEDE2000 over the 24 patches minimised ([`reference`] for the
+//!    summing to one, the mean CIEDE2000 over the 24 patches minimised ([`mod@reference`] for the
 //!    target: the chart under the shot's light adapted to D65, the light a CIE illuminant the
 //!    name gives, else a blackbody or daylight of its CCT), and the DNG ColorMatrix/ForwardMatrix pair for the coolest and warmest light.
 
@@ -455,6 +455,21 @@ pub struct Tuned {
     pub charts: Vec<ChartShot>,
     /// The photon-transfer points per ISO and colour (mean DN, variance DN^2).
     pub transfer: Vec<(f64, [Vec<TransferPoint>; 3])>,
+    /// Each flat field after the tuning's shading correction: per colour temperature and
+    /// colour, the residual (corrected block mean over the frame's mean, less 1) on a grid of
+    /// 32 x 32-pixel blocks, `blocks_across` wide.
+    pub shading_residual: Vec<ShadingResidual>,
+}
+
+/// A flat field's residual after correction ([`Tuned::shading_residual`]).
+#[derive(Debug, Clone)]
+pub struct ShadingResidual {
+    /// Colour temperature, K.
+    pub cct: f64,
+    /// Blocks across.
+    pub blocks_across: usize,
+    /// Residual per colour, row-major blocks.
+    pub residual: [Vec<f64>; 3],
 }
 
 fn refuse(path: &Path, message: impl Into<String>) -> Error {
@@ -1077,13 +1092,62 @@ pub fn tune(settings: &TuneSettings, progress: &mut dyn FnMut(&str)) -> Result<T
         });
     }
     tuning.ccm.sort_by(|a, b| a.cct.total_cmp(&b.cct));
+    let shading_residual = flat_means
+        .iter()
+        .map(|(cct, mean)| residual_of(&tuning, mean, *cct, &is_defect))
+        .collect();
     tuning.dng = dng_matrices(&tuning, &chart_shots)?;
     Ok(Tuned {
         tuning,
         warnings,
         charts: chart_shots,
         transfer,
+        shading_residual,
     })
+}
+
+/// A flat field corrected by the tuning's shading at `cct`, in 32-pixel blocks.
+fn residual_of(
+    tuning: &Tuning,
+    flat: &[f64],
+    cct: f64,
+    is_defect: &dyn Fn(usize, usize) -> bool,
+) -> ShadingResidual {
+    const BLOCK: usize = 32;
+    let (w, h) = (tuning.width, tuning.height);
+    let pattern = isp_core::CfaPattern::ALL
+        .into_iter()
+        .find(|p| p.name() == tuning.pattern)
+        .unwrap_or(isp_core::CfaPattern::Rggb);
+    let (bw, bh) = (w.div_ceil(BLOCK), h.div_ceil(BLOCK));
+    let mut residual: [Vec<f64>; 3] = Default::default();
+    for (c, out) in residual.iter_mut().enumerate() {
+        let mut means = Vec::with_capacity(bw * bh);
+        for by in 0..bh {
+            for bx in 0..bw {
+                let (mut s, mut n) = (0.0, 0.0);
+                for y in by * BLOCK..((by + 1) * BLOCK).min(h) {
+                    for x in bx * BLOCK..((bx + 1) * BLOCK).min(w) {
+                        if pattern.colour_at(x, y).index() != c || is_defect(x, y) {
+                            continue;
+                        }
+                        let v = flat[y * w + x] - tuning.black_level.values[(y % 2) * 2 + x % 2];
+                        s += v * tuning.shading_gain(x as f64 + 0.5, y as f64 + 0.5, c, cct);
+                        n += 1.0;
+                    }
+                }
+                means.push(if n > 0.0 { s / n } else { f64::NAN });
+            }
+        }
+        let valid: Vec<f64> = means.iter().copied().filter(|v| v.is_finite()).collect();
+        let overall = valid.iter().sum::<f64>() / valid.len().max(1) as f64;
+        *out = means.iter().map(|m| m / overall - 1.0).collect();
+    }
+    ShadingResidual {
+        cct,
+        blocks_across: bw,
+        residual,
+    }
 }
 
 /// ColorMatrix/ForwardMatrix for the warmest and coolest light: with `C` the colour matrix
@@ -1192,4 +1256,144 @@ mod tests {
         assert_eq!(classify("holiday.dng"), None);
         assert_eq!(classify("alsc_3000k.dng"), None);
     }
+}
+
+/// What a tuning sets for one frame ([`options_for`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Applied {
+    /// The ISP options: black level, defects, noise profile, white-balance gains, lens shading
+    /// and colour matrix at the frame's colour temperature.
+    pub options: crate::isp_options::IspOptions,
+    /// The colour temperature the locus gave, K.
+    pub cct: f64,
+    /// The white balance through the locus (green 1).
+    pub gains: [f32; 3],
+    /// The ISO whose noise profile was taken.
+    pub noise_iso: f64,
+}
+
+/// The ISP options a tuning implies for `raw`: the black level, the defect map, the noise
+/// profile at the tuned ISO nearest `iso` (the lowest without one), the white balance
+/// estimated by `awb` and moved into the locus's band, and the lens shading and colour matrix
+/// interpolated at the colour temperature the locus gives. Refuses a frame of another size,
+/// pattern or bit depth than the tuning's.
+pub fn options_for(
+    tuning: &Tuning,
+    raw: &RawImage,
+    awb: isp_core::wb::AwbMethod,
+    iso: Option<f64>,
+) -> Result<Applied, Error> {
+    use crate::isp_options::{IspOptions, ShadingGrid, WhiteBalance};
+    if (raw.width, raw.height, raw.pattern.name(), raw.bits)
+        != (
+            tuning.width,
+            tuning.height,
+            tuning.pattern.as_str(),
+            tuning.bits,
+        )
+    {
+        return Err(Error::Option {
+            option: "--tuning",
+            value: format!(
+                "a tuning of {}x{} {} {}-bit",
+                tuning.width, tuning.height, tuning.pattern, tuning.bits
+            ),
+            allowed: format!(
+                "one of this frame's camera mode ({}x{} {} {}-bit)",
+                raw.width,
+                raw.height,
+                raw.pattern.name(),
+                raw.bits
+            ),
+        });
+    }
+    let black: [u16; 4] = tuning
+        .black_level
+        .values
+        .map(|v| v.round().clamp(0.0, f64::from(tuning.white_level)) as u16);
+    let frame = isp_core::frame::RawFrame::new(
+        &raw.samples,
+        raw.width,
+        raw.height,
+        raw.width,
+        raw.bits,
+        raw.pattern,
+        black,
+        tuning.white_level,
+    )
+    .map_err(|e| Error::in_stage("--tuning: the raw frame", e))?;
+    let estimate = isp_core::wb::estimate(&frame, awb, &colour::LINEAR_SRGB_TO_XYZ)
+        .map_err(|e| Error::in_stage("--awb", e))?;
+    let neutral = estimate.neutral.map(f64::from);
+    let (gains, cct) = tuning.constrain_white(neutral).ok_or(Error::Option {
+        option: "--tuning",
+        value: "its white-balance locus".into(),
+        allowed: "a locus with at least two lights".into(),
+    })?;
+    let (gw, gh) = (tuning.shading.grid_width, tuning.shading.grid_height);
+    let nodes = fit::grid_nodes(gw, gh, tuning.width, tuning.height);
+    let mut gains_q12 = Vec::with_capacity(nodes.len() * 4);
+    for &(x, y) in &nodes {
+        for p in 0..4 {
+            let c = raw.pattern.colour_at(p % 2, p / 2).index();
+            let g = tuning.shading_gain(x + 0.5, y + 0.5, c, cct);
+            gains_q12.push(
+                (g * f64::from(isp_core::lsc::ONE_Q12))
+                    .round()
+                    .clamp(0.0, 65535.0) as u16,
+            );
+        }
+    }
+    let entry = tuning
+        .noise
+        .iter()
+        .min_by(|a, b| {
+            let d = |e: &NoiseEntry| iso.map_or(e.iso, |i| (e.iso - i).abs());
+            d(a).total_cmp(&d(b))
+        })
+        .ok_or(Error::Option {
+            option: "--tuning",
+            value: "no noise profile".into(),
+            allowed: "a tuning with at least one [[noise]] entry".into(),
+        })?;
+    let noise = isp_core::noise::NoiseProfile::new(
+        entry.scale.map(|v| v as f32),
+        entry.offset.map(|v| v as f32),
+    )
+    .map_err(|e| Error::in_stage("--tuning: the noise profile", e))?;
+    let d = &tuning.defects;
+    let mut defects: Vec<isp_core::dpc::Defect> = d
+        .hot
+        .iter()
+        .chain(&d.dead)
+        .chain(&d.stuck)
+        .filter(|p| p[0] < raw.width && p[1] < raw.height)
+        .map(|p| isp_core::dpc::Defect {
+            x: p[0] as u16,
+            y: p[1] as u16,
+        })
+        .collect();
+    defects.sort();
+    defects.dedup();
+    let ccm = tuning.ccm_at(cct).map(|r| r.map(|v| v as f32));
+    let gains32 = gains.map(|g| g as f32);
+    Ok(Applied {
+        options: IspOptions {
+            black_level: Some(black.to_vec()),
+            white_level: Some(tuning.white_level),
+            white_balance: Some(WhiteBalance::Gains(gains32)),
+            ccm: Some(ccm),
+            noise_profile: Some(noise),
+            defects: Some(defects),
+            lsc: Some(ShadingGrid {
+                width: gw,
+                height: gh,
+                gains_q12,
+            }),
+            ..IspOptions::default()
+        },
+        cct,
+        gains: gains32,
+        noise_iso: entry.iso,
+    })
 }

@@ -127,6 +127,12 @@ pub struct ProcessingArgs {
     /// white balance's colour temperature [default: the DNG's ColorMatrix tags, if any].
     #[arg(long)]
     pub calibration: Option<PathBuf>,
+    /// Tuning file from `camsim tune`: its black level, defect map and noise profile, the
+    /// white balance (--awb's estimate, grey world by default) moved into its locus's band, and
+    /// its lens shading and colour matrix at the locus's colour temperature; flags and --config
+    /// override any of them.
+    #[arg(long, conflicts_with = "calibration")]
+    pub tuning: Option<PathBuf>,
     /// float (the reference) or fixed (the firmware path) [default: float].
     #[arg(long, value_enum)]
     pub path: Option<PathArg>,
@@ -199,6 +205,7 @@ impl ProcessingArgs {
             highlight_knee: self.highlight_knee,
             sharpen: self.sharpen,
             chroma_denoise: self.chroma_denoise,
+            tuning: self.tuning.clone(),
         })
     }
 
