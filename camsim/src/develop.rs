@@ -69,6 +69,8 @@ pub enum Noise {
     Option(NoiseProfile),
     /// The file's NoiseProfile tag.
     File(NoiseProfile),
+    /// The tuning file's profile (`--tuning`).
+    Tuning(NoiseProfile),
     /// Estimated from the frame (with how many level sets and how confidently).
     Estimated(crate::noise_estimate::NoiseEstimate),
     /// None could be had, and why.
@@ -85,17 +87,19 @@ impl Noise {
     /// The profile, if there is one.
     pub fn profile(&self) -> Option<NoiseProfile> {
         match self {
-            Noise::Option(p) | Noise::File(p) => Some(*p),
+            Noise::Option(p) | Noise::File(p) | Noise::Tuning(p) => Some(*p),
             Noise::Estimated(e) => Some(e.profile),
             Noise::Unknown(_) => None,
         }
     }
 
-    /// Where it came from, as `--json` names it: `option`, `file`, `estimated` or `none`.
+    /// Where it came from, as `--json` names it: `option`, `file`, `tuning`, `estimated` or
+    /// `none`.
     pub fn source(&self) -> &'static str {
         match self {
             Noise::Option(_) => "option",
             Noise::File(_) => "file",
+            Noise::Tuning(_) => "tuning",
             Noise::Estimated(..) => "estimated",
             Noise::Unknown(_) => "none",
         }
@@ -105,6 +109,7 @@ impl Noise {
     pub fn to_text(&self) -> String {
         let (p, from) = match self {
             Noise::Option(p) => (p, "from --noise-profile".to_string()),
+            Noise::Tuning(p) => (p, "from the tuning file".to_string()),
             Noise::File(p) => (p, "from the file's NoiseProfile tag".to_string()),
             Noise::Estimated(e) => (
                 &e.profile,
@@ -150,7 +155,7 @@ impl Noise {
                 "source": "none",
                 "reason": why,
             }),
-            Noise::Option(p) | Noise::File(p) => {
+            Noise::Option(p) | Noise::File(p) | Noise::Tuning(p) => {
                 serde_json::json!({
                     "source": self.source(),
                     "scale": decimal(p.scale()),
@@ -495,7 +500,9 @@ pub fn with_prepared<R>(
     then: impl FnOnce(Prepared<'_>) -> Result<R, Error>,
 ) -> Result<R, Error> {
     // A tuning file sits under the options given and over the file's own tags.
+    let noise_given = options.noise_profile.is_some();
     let (options, tuned) = apply_tuning(options.clone(), &input.raw)?;
+    let noise_from_tuning = tuned.is_some() && !noise_given;
     let options = options.or(input.defaults.clone());
     let calibration = calibration.or(input.calibration);
     let image = &input.raw;
@@ -628,6 +635,7 @@ pub fn with_prepared<R>(
         .filter(|_| options.baseline_exposure.unwrap_or(true));
     let exposure_gain = baseline_ev.map_or(1.0, |ev| 2f64.powf(ev) as f32);
     let noise = match (options.noise_profile, input.noise_profile, &raw) {
+        (Some(p), _, _) if noise_from_tuning => Noise::Tuning(p),
         (Some(p), _, _) => Noise::Option(p),
         (None, Some(p), _) => Noise::File(p),
         (None, None, Input::Linear(_)) => Noise::Unknown(
