@@ -254,14 +254,7 @@ fn check_colour(tuned: &Tuned, truth: &simulate::CaptureTruth, held: &Path, name
     let dng = raw_formats::dng::Dng::read(held).unwrap();
     let raw = &dng.image;
     let black = t.black_level.values;
-    let mosaic = chart::Mosaic {
-        samples: &raw.samples,
-        width: raw.width,
-        height: raw.height,
-        pattern: raw.pattern,
-        black,
-        white: f64::from(raw.white_level),
-    };
+    let mosaic = chart::Mosaic::of(raw, black);
     let corners = chart::detect(&mosaic).expect("the held-out chart is found");
     let map = chart::ChartMap::from_corners(&corners).unwrap();
     let defects: std::collections::BTreeSet<[usize; 2]> = t
@@ -495,15 +488,7 @@ fn chart_is_found_where_it_was_drawn() {
             border,
         };
         let raw = simulate::chart_frame(&spec, "D65").unwrap();
-        let black = raw.black_level.map(f64::from);
-        let mosaic = chart::Mosaic {
-            samples: &raw.samples,
-            width: raw.width,
-            height: raw.height,
-            pattern: raw.pattern,
-            black,
-            white: f64::from(raw.white_level),
-        };
+        let mosaic = chart::Mosaic::of(&raw, raw.black_level.map(f64::from));
         let found = chart::detect(&mosaic)
             .unwrap_or_else(|e| panic!("{centre:?} {width_fraction} {rotation_deg}: {e}"));
         let truth = spec.chart.map(spec.width, spec.height).corners();

@@ -182,7 +182,19 @@ pub struct Mosaic<'a> {
     pub white: f64,
 }
 
-impl Mosaic<'_> {
+impl<'a> Mosaic<'a> {
+    /// A raw frame with the black level `black` (per 2x2 position).
+    pub fn of(raw: &'a raw_formats::RawImage, black: [f64; 4]) -> Self {
+        Mosaic {
+            samples: &raw.samples,
+            width: raw.width,
+            height: raw.height,
+            pattern: raw.pattern,
+            black,
+            white: f64::from(raw.white_level),
+        }
+    }
+
     /// The level from which a sample counts as clipped: 97 % of the way from black to white
     /// (sensors saturate a little below the white level: the full well, less the dark charge
     /// the clamp takes away, lands under it).

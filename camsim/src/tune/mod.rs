@@ -620,17 +620,6 @@ pub fn read_captures(
     Ok((captures, ignored))
 }
 
-fn mosaic<'a>(raw: &'a RawImage, black: [f64; 4]) -> Mosaic<'a> {
-    Mosaic {
-        samples: &raw.samples,
-        width: raw.width,
-        height: raw.height,
-        pattern: raw.pattern,
-        black,
-        white: f64::from(raw.white_level),
-    }
-}
-
 /// Tunes the camera whose captures `settings.captures` holds.
 pub fn tune(settings: &TuneSettings, progress: &mut dyn FnMut(&str)) -> Result<Tuned, Error> {
     let (gw, gh) = settings.grid;
@@ -740,7 +729,12 @@ pub fn tune(settings: &TuneSettings, progress: &mut dyn FnMut(&str)) -> Result<T
             }
         }
     }
-    let is_defect = |x: usize, y: usize| defect_kind.contains_key(&(y, x));
+    // A mask, not the map: the fits below ask it of every pixel of every frame.
+    let mut defect_mask = vec![false; w * h];
+    for &(y, x) in defect_kind.keys() {
+        defect_mask[y * w + x] = true;
+    }
+    let is_defect = |x: usize, y: usize| defect_mask[y * w + x];
 
     // 3. Shading.
     progress("lens shading from the flat fields");
@@ -937,7 +931,7 @@ pub fn tune(settings: &TuneSettings, progress: &mut dyn FnMut(&str)) -> Result<T
             continue;
         };
         progress(&format!("chart in {}", c.path.display()));
-        let m = mosaic(&c.raw, black);
+        let m = Mosaic::of(&c.raw, black);
         let (corners, found) = match settings.chart {
             Some(k) => (k, false),
             None => (
