@@ -323,6 +323,11 @@ pub struct Processing {
     /// colour (red, green, blue) as the file states it. The writer stores one pair when every
     /// colour has the same.
     pub noise_profile: Option<isp_core::noise::NoiseProfile>,
+    /// ExposureTime (EXIF tag 33434, in IFD 0 as PiDNG writes it), seconds: how the frame
+    /// was shot, which tuning tools (Raspberry Pi's among them) read.
+    pub exposure_time_s: Option<f64>,
+    /// ISOSpeedRatings (EXIF tag 34855, in IFD 0), the ISO the frame was shot at.
+    pub iso: Option<u16>,
 }
 
 /// How the file says its image is framed, for the developer to apply to its output.
@@ -372,6 +377,8 @@ pub(crate) mod tags {
     pub(crate) const DEFAULT_CROP_SIZE: u16 = 50720;
     pub(crate) const ACTIVE_AREA: u16 = 50829;
     pub(crate) const BASELINE_EXPOSURE: u16 = 50730;
+    pub(crate) const EXPOSURE_TIME: u16 = 33434;
+    pub(crate) const ISO_SPEED_RATINGS: u16 = 34855;
     pub(crate) const OPCODE_LISTS: [u16; 3] = [51008, 51009, 51022];
     pub(crate) const COLOR_MATRIX_1: u16 = 50721;
     pub(crate) const COLOR_MATRIX_2: u16 = 50722;
@@ -1058,6 +1065,23 @@ mod tests {
             write::long(DEFAULT_CROP_SIZE, &[4, 3]),
         ]);
         assert!(crop.contains("crop"), "{crop}");
+    }
+
+    #[test]
+    fn exposure_time_and_iso_round_trip_in_ifd0() {
+        let mut d = sample();
+        d.processing.exposure_time_s = Some(1.0 / 250.0);
+        d.processing.iso = Some(400);
+        for bytes in [
+            d.encode().unwrap(),
+            d.encode_with_preview(&EncodeOptions::default()).unwrap(),
+        ] {
+            let back = Dng::decode(&bytes).unwrap();
+            assert_eq!(back.processing.exposure_time_s, Some(0.004));
+            assert_eq!(back.processing.iso, Some(400));
+        }
+        d.processing.exposure_time_s = Some(-1.0);
+        assert!(d.encode().is_err(), "a negative exposure time is refused");
     }
 
     #[test]

@@ -486,6 +486,18 @@ impl Tiff<'_> {
             opcode_lists: lists,
             bad_pixels,
             noise_profile: self.noise_profile(ifd, ifd0)?,
+            // Informative: a malformed one is left out, not a reason to refuse the file.
+            exposure_time_s: self
+                .first(ifd0, EXPOSURE_TIME)
+                .ok()
+                .flatten()
+                .filter(|v| v.is_finite() && *v > 0.0),
+            iso: self
+                .first(ifd0, ISO_SPEED_RATINGS)
+                .ok()
+                .flatten()
+                .filter(|v| (1.0..=65535.0).contains(v))
+                .map(|v| v as u16),
         };
         let colour = self.colour(ifd0)?;
         let camera_model = self

@@ -405,6 +405,8 @@ impl Dng {
                 AS_SHOT_NEUTRAL,
                 AS_SHOT_WHITE_XY,
                 BASELINE_EXPOSURE,
+                EXPOSURE_TIME,
+                ISO_SPEED_RATINGS,
             ]
             .contains(&tag)
                 || CALIBRATION_TAGS.iter().any(|c| {
@@ -636,6 +638,19 @@ impl Dng {
                 });
             }
             entries.push(srational(BASELINE_EXPOSURE, &[ev]));
+        }
+        if let Some(t) = self.processing.exposure_time_s {
+            if !(t > 0.0 && t <= 4000.0) {
+                return Err(FormatError::OutOfRange {
+                    field: "exposure time",
+                    value: t.to_string(),
+                    allowed: "(0, 4000] s".into(),
+                });
+            }
+            entries.push(rational(EXPOSURE_TIME, &[t]));
+        }
+        if let Some(iso) = self.processing.iso {
+            entries.push(short(ISO_SPEED_RATINGS, &[iso]));
         }
         if let Some(p) = self.processing.noise_profile {
             let pairs: Vec<f64> = if p.is_uniform() {
