@@ -83,6 +83,10 @@ pub struct DemoSettings {
     pub illuminant: Option<String>,
     /// Calibration file from `camsim calibrate`; `None`: calibrate under A and D65 now.
     pub calibration: Option<PathBuf>,
+    /// Tuning file from `camsim tune`: the frame is calibrated, white-balanced (through the
+    /// locus) and developed with it, and `raw.dng` carries it ([`crate::tune::carry_in_dng`]);
+    /// `None`: the sensor's factory calibration and the AWB.
+    pub tuning: Option<PathBuf>,
     /// Image width; `None`: the scene's.
     pub width: Option<u32>,
     /// Image height; `None`: the scene's.
@@ -121,6 +125,7 @@ impl Default for DemoSettings {
             sensor: SensorPreset::Realistic,
             illuminant: None,
             calibration: None,
+            tuning: None,
             width: None,
             height: None,
             spp: None,
@@ -210,6 +215,8 @@ pub struct DemoReport {
     pub awb_reason: Option<AwbReason>,
     /// The AWB's correlated colour temperature, kelvin.
     pub cct_k: f64,
+    /// The tuning file the frame was calibrated and developed with (`--tuning`), if any.
+    pub tuning: Option<String>,
     /// The sensor's noise profile as raw.dng states it: `source`, `scale` and `offset` per
     /// colour (`var = S x + O`, `x` a fraction of white above black).
     pub noise_profile: serde_json::Value,
@@ -469,6 +476,8 @@ pub struct Captured {
     pub sensor_s: f64,
     /// The sensor's output.
     pub capture: sensor::Capture,
+    /// The ISO it was shot at.
+    pub iso: f64,
     /// The camera's response.
     pub response: Response,
     /// The DNG's colour tags (without AsShotNeutral).
@@ -487,8 +496,16 @@ pub struct Captured {
     pub ccm: Result<[[f32; 3]; 3], isp_core::IspError>,
     /// The factory defect map.
     pub defects: Vec<Defect>,
-    /// The factory shading grid (17 x 13 nodes, Q4.12), if the sensor shades.
+    /// The factory shading grid (17 x 13 nodes, Q4.12), if the sensor shades; with a tuning,
+    /// the tuning's at the frame's colour temperature.
     pub shading_grid: Option<Vec<u16>>,
+    /// The shading grid's nodes across and down.
+    pub shading_size: (usize, usize),
+    /// The tuning file the frame was calibrated with, if any, and the colour temperature its
+    /// locus gave, K.
+    pub tuning: Option<(PathBuf, f64)>,
+    /// The DNG opcode lists `raw.dng` carries (a tuning's defect map and shading), else empty.
+    pub dng_opcodes: [Vec<raw_formats::dng::opcodes::Opcode>; 3],
     /// Whether the sensor adds noise (the demo then reduces it, as its profile says).
     pub noisy: bool,
     /// The truth, linear sRGB on the ISP's output scale.
@@ -522,9 +539,56 @@ impl Captured {
             framing: Default::default(),
             processing: raw_formats::dng::Processing {
                 noise_profile: Some(self.capture.noise_profile),
+                opcode_lists: self.dng_opcodes.clone(),
+                exposure_time_s: Some(self.capture.exposure_s),
+                iso: Some(self.iso.round().clamp(1.0, 65535.0) as u16),
                 ..Default::default()
             },
         }
+    }
+
+    /// Calibrates the frame with the tuning file at `path` instead of the sensor's factory
+    /// calibration and the AWB: its black level, defect map, noise profile at the tuned ISO
+    /// nearest `iso`, the white balance `awb` estimates moved into the locus (its angle to
+    /// `true_neutral` measured again), and shading and colour matrix at the colour temperature
+    /// the locus gives; the DNG's colour tags and opcode lists from it.
+    fn retune(
+        &mut self,
+        path: &std::path::Path,
+        awb: AwbMethod,
+        iso: f64,
+        true_neutral: [f64; 3],
+    ) -> Result<(), Error> {
+        let tuning = crate::tune::Tuning::read(path)?;
+        let mut dng = self.dng();
+        let applied = crate::tune::carry_in_dng(&tuning, &mut dng, awb, Some(iso))
+            .map_err(|e| e.in_file(path))?;
+        let options = applied.options;
+        self.capture.raw.black_level = dng.image.black_level;
+        self.capture.raw.white_level = dng.image.white_level;
+        self.defects = options.defects.unwrap_or_default();
+        if let Some(grid) = options.lsc {
+            self.shading_size = (grid.width, grid.height);
+            self.shading_grid = Some(grid.gains_q12);
+        }
+        if let Some(noise) = options.noise_profile {
+            self.capture.noise_profile = noise;
+        }
+        if let Some(ccm) = options.ccm {
+            self.ccm = Ok(ccm);
+        }
+        self.awb.gains = applied.gains;
+        self.awb.neutral = applied.gains.map(|g| 1.0 / g);
+        self.awb.cct_k = applied.cct;
+        self.awb_angular_error_deg =
+            angular_error_deg(self.awb.neutral.map(f64::from), true_neutral);
+        self.dng_colour = DngColour {
+            as_shot_neutral: None,
+            ..dng.colour
+        };
+        self.dng_opcodes = dng.processing.opcode_lists;
+        self.tuning = Some((path.to_path_buf(), applied.cct));
+        Ok(())
     }
 
     /// The demo's noise-reduction strength: the profile's default (1) where the sensor is
@@ -554,7 +618,7 @@ impl Captured {
             lsc: self
                 .shading_grid
                 .as_ref()
-                .map(|g| LensShading::new(17, 13, g))
+                .map(|g| LensShading::new(self.shading_size.0, self.shading_size.1, g))
                 .transpose()?,
             wb_gains: self.awb.gains,
             demosaic,
@@ -780,7 +844,7 @@ pub fn capture_scene(
         .shading
         .is_active()
         .then(|| capture.shading.correction_grid(17, 13, capture.raw.pattern));
-    Ok(Captured {
+    let mut captured = Captured {
         scene,
         illuminant,
         spectral,
@@ -789,6 +853,7 @@ pub fn capture_scene(
         sensor_s,
         noisy: config.noise != sensor::NoiseConfig::default(),
         capture,
+        iso: config.iso,
         response,
         dng_colour,
         awb,
@@ -797,9 +862,16 @@ pub fn capture_scene(
         ccm,
         defects,
         shading_grid,
+        shading_size: (17, 13),
+        tuning: None,
+        dng_opcodes: Default::default(),
         truth_linear,
         truth8,
-    })
+    };
+    if let Some(path) = &args.tuning {
+        captured.retune(path, args.awb, config.iso, true_neutral)?;
+    }
+    Ok(captured)
 }
 
 /// Runs the demo (see the module docs), reporting each step to `progress`.
@@ -977,6 +1049,10 @@ pub fn run(
                 angle_deg: *angle,
             }),
         cct_k: awb.cct_k,
+        tuning: captured
+            .tuning
+            .as_ref()
+            .map(|(p, _)| p.display().to_string()),
         noise_profile: noise.to_json(),
         files: names.iter().map(|n| out(n).display().to_string()).collect(),
     };
@@ -1030,6 +1106,12 @@ fn report_text(r: &DemoReport, total_s: f64, stages: &[&str], noise: &develop::N
         "  AWB: estimated {:.0} K, {:.2} degrees from the true illuminant ({})\n",
         r.cct_k, r.awb_angular_error_deg, r.illuminant
     );
+    if let Some(tuning) = &r.tuning {
+        t += &format!(
+            "  tuning: {tuning} (white balance through its locus; black level, defects, noise, \
+             shading and colour matrix from it, and raw.dng carries them)\n"
+        );
+    }
     if let Some(reason) = &r.awb_reason {
         let [red, green, blue] = reason.rgb;
         t += &format!(
@@ -1084,6 +1166,7 @@ mod tests {
             awb_angular_error_deg: 1.0,
             awb_reason: None,
             cct_k: 6500.0,
+            tuning: None,
             noise_profile: develop::Noise::Unknown("test".into()).to_json(),
             files: vec![],
         };

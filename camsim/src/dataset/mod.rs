@@ -153,26 +153,42 @@ fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), Error> {
 /// `spec.toml`, or checks that the copy there is this spec.
 pub fn prepare_out(spec: &Spec, out: &Path) -> Result<(), Error> {
     std::fs::create_dir_all(out).map_err(|e| FormatError::io(out, e))?;
-    let copy = out.join("spec.toml");
-    match std::fs::read_to_string(&copy) {
-        Ok(text) if text == spec.text => Ok(()),
-        Ok(_) => Err(Error::Message(format!(
-            "{} holds samples of another spec ({} differs): give another --out",
+    keep_one(out, "spec.toml", Some(&spec.text), "spec")?;
+    // The tuning, if any, is part of what the samples are: one per folder too.
+    let tuning = match &spec.tuning {
+        Some(path) => Some(std::fs::read_to_string(path).map_err(|e| FormatError::io(path, e))?),
+        None => None,
+    };
+    keep_one(out, "tuning.toml", tuning.as_deref(), "tuning")
+}
+
+/// Writes `text` to `out/name` (`None`: the file must not exist), or checks that what is
+/// there is the same: a folder holds the samples of one spec and one tuning.
+fn keep_one(out: &Path, name: &str, text: Option<&str>, what: &str) -> Result<(), Error> {
+    let copy = out.join(name);
+    let refuse = || {
+        Error::Message(format!(
+            "{} holds samples of another {what} ({} differs): give another --out",
             out.display(),
             copy.display()
-        ))),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-            write_atomically(&copy, spec.text.as_bytes())?;
-            // Two workers may both have written it; what is there must be this spec.
+        ))
+    };
+    match (std::fs::read_to_string(&copy), text) {
+        (Ok(there), Some(text)) if there == text => Ok(()),
+        (Ok(_), _) => Err(refuse()),
+        (Err(e), None) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        (Err(e), Some(text)) if e.kind() == std::io::ErrorKind::NotFound => {
+            write_atomically(&copy, text.as_bytes())?;
+            // Two workers may both have written it; what is there must be this one.
             match std::fs::read_to_string(&copy) {
-                Ok(text) if text == spec.text => Ok(()),
+                Ok(there) if there == text => Ok(()),
                 _ => Err(Error::Message(format!(
-                    "{} was written by another spec at the same time",
+                    "{} was written by another {what} at the same time",
                     copy.display()
                 ))),
             }
         }
-        Err(e) => Err(FormatError::io(&copy, e).into()),
+        (Err(e), _) => Err(FormatError::io(&copy, e).into()),
     }
 }
 
@@ -437,6 +453,7 @@ pub fn generate(spec: &Spec, out: &Path, index: u64, threads: usize) -> Result<O
         exposure: config.exposure_s,
         bits: config.adc_bits,
         pattern: config.pattern,
+        tuning: spec.tuning.clone(),
         ..DemoSettings::default()
     };
     let drawn_s = start.elapsed().as_secs_f64();
@@ -534,6 +551,12 @@ pub fn generate(spec: &Spec, out: &Path, index: u64, threads: usize) -> Result<O
                 "ccm": captured.ccm.ok(),
             }),
         );
+        if let Some((_, cct)) = &captured.tuning {
+            record.insert(
+                "tuning".into(),
+                json!({ "file": "tuning.toml", "cct_k": cct }),
+            );
+        }
         if let Err(e) = captured.ccm {
             let why = Error::in_stage("colour matrix", e).to_string();
             record.insert("isp_refused".into(), json!(why));

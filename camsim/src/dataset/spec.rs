@@ -209,6 +209,10 @@ pub struct Spec {
     pub max_depth: Option<u32>,
     /// Also develop each raw with the ISP into `srgb.png`.
     pub isp: bool,
+    /// A tuning file from `camsim tune` (`dataset.tuning`, relative to the spec, or `camsim
+    /// dataset --tuning`): every sample is calibrated, white-balanced and developed with it
+    /// and its `raw.dng` carries it, as `camsim demo --tuning` does.
+    pub tuning: Option<PathBuf>,
     /// Which scene each sample shows: generator names, built-in scene names, scene files.
     pub scene: Draw,
     /// Image folder of the textured-plane generator.
@@ -313,6 +317,7 @@ impl Spec {
                 "spp",
                 "max_depth",
                 "isp",
+                "tuning",
             ],
         )?;
         let integer = |key: &str, lo: i64, hi: i64, default: Option<i64>| -> Result<i64, Error> {
@@ -337,6 +342,17 @@ impl Spec {
             None => false,
             Some(Value::Boolean(b)) => *b,
             Some(_) => return Err(spec_error("dataset.isp", "true or false")),
+        };
+
+        let tuning = match dataset.get("tuning") {
+            None => None,
+            Some(Value::String(s)) => Some(dir.join(s)),
+            Some(_) => {
+                return Err(spec_error(
+                    "dataset.tuning",
+                    "a tuning file from camsim tune (relative to the spec)",
+                ))
+            }
         };
 
         let scene = section(
@@ -439,7 +455,7 @@ impl Spec {
                 params.push((*key, draw));
             }
         }
-        Ok(Spec {
+        let mut spec = Spec {
             text: text.to_owned(),
             dir: dir.to_path_buf(),
             seed,
@@ -449,13 +465,52 @@ impl Spec {
             spp,
             max_depth,
             isp,
+            tuning: None,
             scene: generators,
             images,
             texture_cells,
             objects,
             subject_distance_m,
             params,
-        })
+        };
+        if let Some(path) = tuning {
+            spec.set_tuning(&path)?;
+        }
+        Ok(spec)
+    }
+
+    /// Develops every sample with the tuning file at `path`, after checking that it reads
+    /// and that its camera mode (size, CFA pattern, bit depth) is the one every sample draws.
+    pub fn set_tuning(&mut self, path: &Path) -> Result<(), Error> {
+        let tuning = crate::tune::Tuning::read(path)?;
+        let mode = |what: &str, spec: String| {
+            Err(spec_error(
+                "dataset.tuning",
+                &format!(
+                    "{} is a tuning of {}x{} {} {}-bit, but the spec's samples have {what} {spec}",
+                    path.display(),
+                    tuning.width,
+                    tuning.height,
+                    tuning.pattern,
+                    tuning.bits
+                ),
+            ))
+        };
+        if (tuning.width, tuning.height) != (self.width as usize, self.height as usize) {
+            return mode("size", format!("{}x{}", self.width, self.height));
+        }
+        let patterns = self.param("pattern").map_or(vec!["RGGB".to_owned()], |d| {
+            d.texts().iter().map(|t| t.to_ascii_uppercase()).collect()
+        });
+        if patterns.iter().any(|p| *p != tuning.pattern) {
+            return mode("CFA pattern", patterns.join(" or "));
+        }
+        let bits = self.param("bits").map_or(vec![12.0], |d| d.numbers());
+        if bits.iter().any(|b| *b != f64::from(tuning.bits)) {
+            return mode("bit depth", format!("{bits:?}"));
+        }
+        self.tuning = Some(path.to_path_buf());
+        Ok(())
     }
 
     /// The draw for `key` of `[camera]` or `[sensor]`, if the spec gives it.

@@ -137,6 +137,8 @@ pub struct Capture {
     pub kind: CaptureKind,
     /// Its raw frame.
     pub raw: RawImage,
+    /// The ISO its DNG says it was shot at (ISOSpeedRatings), if it says.
+    pub iso: Option<u16>,
 }
 
 /// Settings of a tuning run.
@@ -391,7 +393,7 @@ impl Tuning {
 }
 
 /// Interpolates `value` of entries keyed by `cct` linearly in reciprocal temperature.
-fn interpolate_mired<T>(
+pub(crate) fn interpolate_mired<T>(
     entries: &[T],
     cct: impl Fn(&T) -> f64,
     at: f64,
@@ -558,7 +560,12 @@ pub fn read_captures(
                 ),
             ));
         }
-        captures.push(Capture { path, kind, raw });
+        captures.push(Capture {
+            path,
+            kind,
+            raw,
+            iso: dng.processing.iso,
+        });
     }
     let charts: Vec<f64> = captures
         .iter()
@@ -984,36 +991,45 @@ pub fn tune(settings: &TuneSettings, progress: &mut dyn FnMut(&str)) -> Result<T
         shots.push((c, cct, corners, found, means, neutral, patches));
     }
 
-    // Noise from the chart patches when no photon transfer was given.
+    // Noise from the chart patches when no photon transfer was given: one profile per ISO the
+    // chart shots' DNGs give (ISOSpeedRatings), ISO 0 for shots that do not say.
     if tuning.noise.is_empty() {
-        let mut scale = [0.0; 3];
-        let mut offset = [0.0; 3];
-        for c in 0..3 {
-            let pts: Vec<TransferPoint> = shots
-                .iter()
-                .flat_map(|s| s.6.iter())
-                .map(|p| TransferPoint {
-                    mean: p.mean[c],
-                    variance: p.variance[c],
-                })
-                .filter(|p| p.mean > 0.0)
-                .collect();
-            let (s, o) = fit::patch_noise_fit(&pts).ok_or_else(|| {
-                refuse(
-                    &settings.captures,
-                    "the chart patches do not fit a noise profile",
-                )
-            })?;
-            scale[c] = s / range;
-            offset[c] = o / (range * range);
+        let mut isos: Vec<Option<u16>> = shots.iter().map(|s| s.0.iso).collect();
+        isos.sort_unstable();
+        isos.dedup();
+        for iso in isos {
+            let mut scale = [0.0; 3];
+            let mut offset = [0.0; 3];
+            for c in 0..3 {
+                let pts: Vec<TransferPoint> = shots
+                    .iter()
+                    .filter(|s| s.0.iso == iso)
+                    .flat_map(|s| s.6.iter())
+                    .map(|p| TransferPoint {
+                        mean: p.mean[c],
+                        variance: p.variance[c],
+                    })
+                    .filter(|p| p.mean > 0.0)
+                    .collect();
+                let (s, o) = fit::patch_noise_fit(&pts).ok_or_else(|| {
+                    refuse(
+                        &settings.captures,
+                        "the chart patches do not fit a noise profile",
+                    )
+                })?;
+                scale[c] = s / range;
+                offset[c] = o / (range * range);
+            }
+            tuning.noise.push(NoiseEntry {
+                iso: iso.map_or(0.0, f64::from),
+                scale,
+                offset,
+                source: "chart patches".into(),
+            });
+            if iso.is_none() {
+                warnings.push("no photon-transfer pairs and chart shots without an ISO tag: their noise profile comes from the chart patches, written as ISO 0".into());
+            }
         }
-        tuning.noise.push(NoiseEntry {
-            iso: 0.0,
-            scale,
-            offset,
-            source: "chart patches".into(),
-        });
-        warnings.push("no photon-transfer pairs: the noise profile comes from the chart patches (ISO unknown, written as 0)".into());
     }
 
     // 6. White-balance locus.
@@ -1207,6 +1223,9 @@ fn nearest_illuminant(cct: f64) -> Illuminant {
 
 /// Writes `text` to `path` whole or not at all: a temporary file beside it, then a rename.
 pub fn write_atomically(path: &Path, text: &str) -> Result<(), Error> {
+    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent).map_err(|e| raw_formats::FormatError::io(parent, e))?;
+    }
     let tmp = path.with_extension("toml.partial");
     std::fs::write(&tmp, text).map_err(|e| raw_formats::FormatError::io(&tmp, e))?;
     std::fs::rename(&tmp, path).map_err(|e| raw_formats::FormatError::io(path, e))?;
@@ -1390,4 +1409,105 @@ pub fn options_for(
         gains: gains32,
         noise_iso: entry.iso,
     })
+}
+
+impl Tuning {
+    /// Reads and checks a tuning file (the error names it).
+    pub fn read(path: &Path) -> Result<Tuning, Error> {
+        let text =
+            std::fs::read_to_string(path).map_err(|e| raw_formats::FormatError::io(path, e))?;
+        Tuning::from_toml(&text).map_err(|e| e.in_file(path))
+    }
+}
+
+/// The DNG BayerPhase of a pattern: the colour of the top-left pixel, green told apart by
+/// its row (0 red, 1 green on a red row, 2 green on a blue row, 3 blue).
+fn bayer_phase(pattern: isp_core::CfaPattern) -> u32 {
+    use isp_core::CfaColour as Colour;
+    match (pattern.colour_at(0, 0), pattern.colour_at(1, 0)) {
+        (Colour::Red, _) => 0,
+        (Colour::Green, Colour::Red) => 1,
+        (Colour::Green, _) => 2,
+        (Colour::Blue, _) => 3,
+    }
+}
+
+/// Makes `dng` carry what `tuning` implies for its frame, as a camera whose firmware holds
+/// the tuning would write it: BlackLevel per CFA position; ColorMatrix1/2 and
+/// ForwardMatrix1/2 with their illuminants; AsShotNeutral from the white balance `awb`
+/// estimates moved into the locus; NoiseProfile at the tuned ISO nearest `iso`; the defect
+/// map as a FixBadPixelsList in OpcodeList1; the lens shading at the locus's colour
+/// temperature as four GainMaps (one per CFA position) in OpcodeList2, on the tuning's grid.
+/// Whatever `dng` carried of these is replaced; its samples are not touched. Returns what
+/// the ISP options of the tuning are for this frame (as `camsim isp --tuning` takes them).
+pub fn carry_in_dng(
+    tuning: &Tuning,
+    dng: &mut Dng,
+    awb: isp_core::wb::AwbMethod,
+    iso: Option<f64>,
+) -> Result<Applied, Error> {
+    use raw_formats::dng::opcodes::{GainMap, Opcode};
+    let applied = options_for(tuning, &dng.image, awb, iso)?;
+    let raw = &mut dng.image;
+    raw.black_level = tuning
+        .black_level
+        .values
+        .map(|v| v.round().clamp(0.0, f64::from(tuning.white_level)) as u16);
+    raw.white_level = tuning.white_level;
+    let (w, h) = (raw.width, raw.height);
+    dng.colour.calibrations = (0..2)
+        .map(|k| ColourCalibration {
+            illuminant: Illuminant::from_code(tuning.dng.illuminants[k]),
+            color_matrix: tuning.dng.color_matrix[k],
+            forward_matrix: Some(tuning.dng.forward_matrix[k]),
+            camera_calibration: None,
+        })
+        .collect();
+    dng.colour.as_shot_neutral = Some(applied.gains.map(|g| 1.0 / f64::from(g)));
+    dng.colour.as_shot_white_xy = None;
+    dng.colour.analog_balance = None;
+    dng.processing.noise_profile = applied.options.noise_profile;
+    let mut points: Vec<[u32; 2]> = applied
+        .options
+        .defects
+        .iter()
+        .flatten()
+        .map(|d| [u32::from(d.y), u32::from(d.x)])
+        .collect();
+    points.sort_unstable();
+    let mut lists: [Vec<Opcode>; 3] = Default::default();
+    if !points.is_empty() {
+        lists[0].push(Opcode::FixBadPixelsList {
+            bayer_phase: bayer_phase(raw.pattern),
+            points,
+            rects: Vec::new(),
+        });
+    }
+    if let Some(grid) = &applied.options.lsc {
+        // isp-core's grid puts node i on pixel i (w - 1) / (gw - 1); a GainMap's points sit at
+        // fractions of the image whose pixel centres are (x + 0.5) / w.
+        let (gw, gh) = (grid.width, grid.height);
+        let spacing = |n: usize, g: usize| (n.max(2) - 1) as f64 / ((g - 1) as f64 * n as f64);
+        for p in 0..4usize {
+            lists[1].push(Opcode::GainMap(GainMap {
+                area: [(p / 2) as u32, (p % 2) as u32, h as u32, w as u32],
+                plane: 0,
+                planes: 1,
+                row_pitch: 2,
+                col_pitch: 2,
+                points: [gh as u32, gw as u32],
+                spacing: [spacing(h, gh), spacing(w, gw)],
+                origin: [0.5 / h as f64, 0.5 / w as f64],
+                map_planes: 1,
+                gains: grid
+                    .gains_q12
+                    .chunks_exact(4)
+                    .map(|node| f32::from(node[p]) / f32::from(isp_core::lsc::ONE_Q12))
+                    .collect(),
+            }));
+        }
+    }
+    dng.processing.opcode_lists = lists;
+    dng.processing.bad_pixels = applied.options.defects.clone().unwrap_or_default();
+    Ok(applied)
 }

@@ -160,6 +160,25 @@ fn seen(response: &Response, reflectance: &[f32; BANDS], light: &[f32; BANDS]) -
     response.of_bands(&lit).map(|v| v as f64 / white)
 }
 
+/// The 24 patches as `camera` sees them under `illuminant`, noise-free and white-balanced
+/// (each channel over the light's own): what a perfect capture hands a colour matrix, the
+/// truth a tuned matrix is measured on.
+pub fn balanced_patches(camera: &str, illuminant: &str) -> Result<Vec<[f64; 3]>, Error> {
+    let response = Response::named(camera)?;
+    let light = spectra::illuminant_bands(illuminant)?;
+    let white = seen(&response, &[1.0; BANDS], &light);
+    let table = Table::parse(COLORCHECKER)?;
+    (0..chart::PATCHES)
+        .map(|i| {
+            let column = table.column_at(i).ok_or(Error::Message(format!(
+                "ColorChecker table: column {i} missing"
+            )))?;
+            let rgb = seen(&response, &spectra::bands_from_grid(column), &light);
+            Ok(std::array::from_fn(|k| rgb[k] / white[k]))
+        })
+        .collect()
+}
+
 /// The chart frame's camera radiance under `light`, 3 per pixel, white = green 1.
 fn chart_radiance(
     spec: &CaptureSetSpec,
@@ -246,7 +265,15 @@ fn exposure_for(sensor: &SensorConfig, lens: &LensGeometry, peak: f64, level: f6
     level / per_second
 }
 
-fn write_dng(spec: &CaptureSetSpec, raw: RawImage, path: &Path) -> Result<(), Error> {
+/// The frame as a DNG with the tags a tuning tool reads: the camera, and the exposure and
+/// ISO it was shot at (EXIF ExposureTime and ISOSpeedRatings, which Raspberry Pi's tool needs).
+fn write_dng(
+    spec: &CaptureSetSpec,
+    raw: RawImage,
+    exposure_s: f64,
+    iso: f64,
+    path: &Path,
+) -> Result<(), Error> {
     let mut raw = raw;
     if let Some(black) = spec.dng_black_level {
         raw.black_level = [black; 4];
@@ -256,9 +283,16 @@ fn write_dng(spec: &CaptureSetSpec, raw: RawImage, path: &Path) -> Result<(), Er
         camera_model: format!("camsim {}", spec.sensor.camera),
         colour: Default::default(),
         framing: Default::default(),
-        processing: Processing::default(),
+        processing: Processing {
+            exposure_time_s: Some(exposure_s),
+            iso: Some(iso.round().clamp(1.0, 65535.0) as u16),
+            ..Processing::default()
+        },
     };
-    dng.write(path)?;
+    // Laid out as cameras write DNGs (a preview in IFD 0, the raw in a SubIFD): Raspberry Pi's
+    // tool reads the raw's WhiteLevel from the first SubIFD only.
+    let bytes = dng.encode_with_preview(&raw_formats::dng::EncodeOptions::default())?;
+    std::fs::write(path, bytes).map_err(|e| raw_formats::FormatError::io(path, e))?;
     Ok(())
 }
 
@@ -315,7 +349,13 @@ pub fn write_capture_set(
         };
         let capture = sensor::capture(radiance, w, h, spec.lens, &config)?;
         let path = dir.join(&name);
-        write_dng(spec, capture.raw.clone(), &path)?;
+        write_dng(
+            spec,
+            capture.raw.clone(),
+            capture.exposure_s,
+            config.iso,
+            &path,
+        )?;
         progress(&name);
         files.push(path);
         Ok(capture)

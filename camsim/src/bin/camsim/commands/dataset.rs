@@ -30,6 +30,12 @@ pub struct DatasetArgs {
     /// Only shard K of N (0-based): the samples whose index is K modulo N.
     #[arg(long, value_name = "K/N", group = "selection", value_parser = parse_shard)]
     pub shard: Option<(u64, u64)>,
+    /// A tuning file from `camsim tune` (overrides the spec's `dataset.tuning`): every sample
+    /// is calibrated, white-balanced and developed with it, and its raw.dng carries it
+    /// (colour matrices, AsShotNeutral, black level, NoiseProfile, FixBadPixelsList, GainMaps).
+    /// Copied to OUT/tuning.toml; a folder holds one tuning.
+    #[arg(long, value_name = "tuning.toml")]
+    pub tuning: Option<PathBuf>,
     /// Render threads per sample (0: one per core; 1 when many processes share a machine).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
@@ -85,7 +91,10 @@ pub fn run(args: &DatasetArgs) -> Result<String, Error> {
     let (Some(spec_path), Some(out)) = (&args.spec, &args.out) else {
         return Err(Error::Message("give --spec and --out".into()));
     };
-    let spec = Spec::load(spec_path)?;
+    let mut spec = Spec::load(spec_path)?;
+    if let Some(tuning) = &args.tuning {
+        spec.set_tuning(tuning)?;
+    }
     let selection = match (args.index, args.range, args.shard) {
         (Some(i), _, _) => Selection::Index(i),
         (_, Some((a, b)), _) => Selection::Range(a, b),

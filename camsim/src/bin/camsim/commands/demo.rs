@@ -44,6 +44,12 @@ pub struct DemoArgs {
     /// Calibration file from `camsim calibrate` [default: calibrate under A and D65 now].
     #[arg(long)]
     pub calibration: Option<PathBuf>,
+    /// Tuning file from `camsim tune` (a tuning of this camera mode: size, pattern, bits):
+    /// calibrate, white-balance through its locus and develop with it, and write it into
+    /// raw.dng (colour matrices, AsShotNeutral, black level, NoiseProfile, the defect map as
+    /// FixBadPixelsList, the shading as GainMaps) [default: the sensor's factory calibration].
+    #[arg(long, conflicts_with = "calibration")]
+    pub tuning: Option<PathBuf>,
     /// Size, samples, seed and threads of the render (and the seed of the sensor's noise).
     #[command(flatten)]
     pub render: RenderFlags,
@@ -92,6 +98,7 @@ impl DemoArgs {
             sensor,
             illuminant: self.illuminant.clone(),
             calibration: self.calibration.clone(),
+            tuning: self.tuning.clone(),
             width: self.render.width,
             height: self.render.height,
             spp: self.render.spp,
