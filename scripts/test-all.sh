@@ -26,6 +26,28 @@ else
   echo "created .venv: $(.venv/bin/python -m pip freeze --disable-pip-version-check | tr '\n' ' ')"
 fi
 export CAMSIM_ORACLE_PYTHON="$PWD/.venv/bin/python"
+
+# The tuning peers (rpi-ctt, emva1288, colour-checker-detection) in .venv-tune: they want
+# OpenCV 4, which cannot share .venv with the oracle's OpenCV 5. Every package is pinned in the
+# file and installed with --no-deps (their opencv-python requirement is met by the headless
+# wheel's cv2). Made once; made again only when the requirements change.
+step "tuning peers' environment (.venv-tune from tests/oracle/tune-peers-requirements.txt)"
+tune_requirements=tests/oracle/tune-peers-requirements.txt
+tune_stamp=.venv-tune/camsim-requirements.txt
+if [ -x .venv-tune/bin/python ] && cmp -s "$tune_requirements" "$tune_stamp"; then
+  echo "reusing .venv-tune ($(.venv-tune/bin/python --version))"
+else
+  python3 -c 'import sys; sys.exit(sys.version_info < (3, 11))' || {
+    echo "error: the tuning peers (rpi-ctt) need Python 3.11 or newer; python3 is $(python3 --version)" >&2
+    exit 1
+  }
+  python3 -m venv --clear .venv-tune
+  .venv-tune/bin/python -m pip install --disable-pip-version-check --quiet --no-deps -r "$tune_requirements"
+  cp "$tune_requirements" "$tune_stamp"
+  echo "created .venv-tune: $(.venv-tune/bin/python -m pip freeze --disable-pip-version-check | tr '\n' ' ')"
+fi
+export CAMSIM_TUNE_PYTHON="$PWD/.venv-tune/bin/python"
+
 export CAMSIM_REQUIRE_ORACLE=1
 
 step "formatting (cargo fmt --check)"

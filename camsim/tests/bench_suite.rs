@@ -100,6 +100,28 @@ fn quick_bench_writes_the_json_the_charts_and_the_summary() {
         }
     }
 
+    // The tuning suite: both cameras tuned by camsim under every light (D50 held out); with
+    // the peers, rpi-ctt's matrices and shading and emva1288's noise beside camsim's.
+    let tune = &results.tune;
+    assert_eq!(tune.cameras.len(), 2);
+    for cam in &tune.cameras {
+        let by = |tool: &str| cam.ccm.iter().filter(|f| f.tool == tool).count();
+        assert_eq!(by("camsim"), 4, "{cam:?}");
+        for f in &cam.ccm {
+            assert!(
+                f.delta_e.len() == 24 && f.mean.is_finite() && f.mean < 10.0,
+                "{f:?}"
+            );
+        }
+        assert!(cam.noise.iter().any(|f| f.tool == "camsim"));
+        if results.peers_skipped.is_none() {
+            assert!(cam.peer_errors.is_empty(), "{:?}", cam.peer_errors);
+            assert_eq!(by("rpi-ctt"), 4, "{cam:?}");
+            assert!(cam.shading.iter().any(|f| f.tool == "rpi-ctt"));
+            assert!(cam.noise.iter().any(|f| f.tool == "emva1288"));
+        }
+    }
+
     // Three cameras under six illuminants, every patch, in-sample and held out.
     let calibration = &results.calibration;
     assert_eq!(calibration.patches.len(), 24);

@@ -228,6 +228,10 @@ pub fn summary(r: &SuiteResults) -> String {
         md += "\n## Noise reduction against its peers\n\n![Noise reduction](denoise.svg)\n\n";
         md += &denoise_table(&r.denoise);
     }
+    if !r.tune.cameras.is_empty() {
+        md += "\n## Camera tuning against its peers\n\n![Tuning](tune.svg)\n\n![CIEDE2000 per patch](tune_ccm.svg)\n\n";
+        md += &r.tune.table();
+    }
     let f = &r.fixed_vs_float;
     md += &format!(
         "\n## Fixed-point against float\n\n![Fixed against float](fixed_vs_float.svg)\n\n\

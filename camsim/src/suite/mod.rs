@@ -12,6 +12,7 @@
 //! | [`failures`](FailureSuite) | `failures.svg` | each demosaicing method's CPSNR and false colour against the zone plate's frequency; output noise against ISO, with and without noise reduction |
 //! | [`depth_of_field`](DofSuite) | `depth_of_field.svg` | the approximation 2u^2Nc/f^2 against the exact near/far limits over subject distance |
 //! | [`calibration`](CalibrationSuite) | `calibration.svg` | CIE 2000 error per ColorChecker patch of the 3x3 and root-polynomial fits, in-sample and held out, for each camera and illuminant |
+//! | [`tune`](tune::TuneSuite) | `tune.svg`, `tune_ccm.svg` | `camsim tune` on two simulated cameras against rpi-ctt (colour matrices per patch, lens shading) and emva1288 (noise profile), all against the simulator's truth |
 //! | [`awb`](AwbSuite) | `awb.svg` | each AWB method's angular error on the demo scene relit by each of the six vendored illuminants, with and without its lamps |
 //!
 //! Everything timed runs on one thread (the AWB suite's renders use every core; nothing
@@ -24,6 +25,7 @@
 mod charts;
 pub mod denoise;
 mod markdown;
+pub mod tune;
 
 pub use charts::denoise as denoise_chart;
 pub use denoise::{DenoisePoint, DenoiseSuite};
@@ -62,6 +64,9 @@ pub struct SuiteSettings {
     pub learned_python: PathBuf,
     /// The command line, for the captions.
     pub command: String,
+    /// The tuning peers' Python (rpi-ctt, emva1288), `.venv-tune`'s
+    /// ([`tune::tune_python`]).
+    pub tune_python: PathBuf,
 }
 
 /// Where the run is, for progress reports.
@@ -153,6 +158,9 @@ pub struct SuiteResults {
     /// Chart 9 (absent from runs before it existed).
     #[serde(default)]
     pub denoise: DenoiseSuite,
+    /// `camsim tune` against rpi-ctt and emva1288 on simulated cameras.
+    #[serde(default)]
+    pub tune: tune::TuneSuite,
     /// Why the peers did not run, if they did not.
     pub peers_skipped: Option<String>,
     /// Seconds the whole run took.
@@ -471,7 +479,7 @@ pub struct RenderSuite {
 }
 
 /// The files a run writes, in its folder.
-pub const FILES: [&str; 11] = [
+pub const FILES: [&str; 13] = [
     "bench.json",
     "summary.md",
     "demosaic_pareto.svg",
@@ -483,6 +491,8 @@ pub const FILES: [&str; 11] = [
     "awb.svg",
     "calibration.svg",
     "denoise.svg",
+    "tune.svg",
+    "tune_ccm.svg",
 ];
 
 /// Runs every suite, writes [`FILES`] into `settings.out` and returns the results.
@@ -494,6 +504,12 @@ pub fn run(settings: &SuiteSettings, progress: ProgressFn<'_>) -> Result<SuiteRe
     let demosaic = demosaic_suite(settings, &mut peers_skipped, progress)?;
     let pipeline = pipeline_suite(settings, &mut peers_skipped, progress)?;
     let denoise = denoise::denoise_suite(settings, &mut peers_skipped, progress)?;
+    let tune = tune::tune_suite(
+        settings,
+        &settings.tune_python,
+        &mut peers_skipped,
+        progress,
+    )?;
     let fixed_vs_float = fixed_float_suite(settings, progress)?;
     let render = render_suite(settings, &mut peers_skipped, progress)?;
     let failures = failure_suite(settings, progress)?;
@@ -515,6 +531,7 @@ pub fn run(settings: &SuiteSettings, progress: ProgressFn<'_>) -> Result<SuiteRe
         awb,
         calibration,
         denoise,
+        tune,
         peers_skipped,
         seconds: started.elapsed().as_secs_f64(),
     };
@@ -551,6 +568,9 @@ pub fn write_all(
             &caption(results),
             &out.join("denoise.svg"),
         )?;
+    }
+    if !results.tune.cameras.is_empty() {
+        tune::charts(&results.tune, &caption(results), out)?;
     }
     write("summary.md", &summary(results))
 }

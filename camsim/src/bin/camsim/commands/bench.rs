@@ -64,6 +64,24 @@ pub enum BenchCommand {
     /// development, BM3D per CFA plane of the raw) on Kodak and McMaster as noisy 12-bit raws,
     /// every peer in the same run (the full `camsim bench` runs it too).
     Denoise(BenchDenoiseArgs),
+    /// The tuning suite alone: `camsim tune` on two simulated cameras' capture sets beside
+    /// Raspberry Pi's Camera Tuning Tool (rpi-ctt: colour matrices, lens shading) and the
+    /// EMVA 1288 reference implementation (emva1288: the noise profile), every tool against
+    /// the simulator's truth in the same run. The peers run in .venv-tune
+    /// ($CAMSIM_TUNE_PYTHON overrides; scripts/test-all.sh makes it). The full `camsim bench`
+    /// runs it too.
+    Tune(BenchTuneArgs),
+}
+
+#[derive(Args)]
+pub struct BenchTuneArgs {
+    /// Folder for tune.json, tune.md, tune.svg, tune_ccm.svg and each camera's captures and
+    /// peer output (created if missing).
+    #[arg(long, default_value = "camsim-bench-tune")]
+    out: PathBuf,
+    /// Smaller frames (240 x 180): a smoke run.
+    #[arg(long)]
+    quick: bool,
 }
 
 #[derive(Args)]
@@ -182,7 +200,64 @@ pub fn run(args: &BenchArgs) -> Result<String, Error> {
         BenchCommand::Dng(args) => bench_dng(args),
         BenchCommand::Isp(args) => bench_isp(args),
         BenchCommand::Denoise(args) => bench_denoise(args),
+        BenchCommand::Tune(args) => bench_tune(args),
     }
+}
+
+fn bench_tune(args: &BenchTuneArgs) -> Result<String, Error> {
+    let settings = suite_settings(&args.out, args.quick, Path::new("data"));
+    let command = settings.command.clone();
+    std::fs::create_dir_all(&args.out).map_err(|e| raw_formats::FormatError::io(&args.out, e))?;
+    let mut progress = Progress::new("bench tune");
+    let started = std::time::Instant::now();
+    let mut skipped = None;
+    let results = suite::tune::tune_suite(
+        &settings,
+        &settings.tune_python,
+        &mut skipped,
+        &mut |what| {
+            progress.step(&format!(
+                "[{:5.1} s] {what}",
+                started.elapsed().as_secs_f64()
+            ))
+        },
+    )?;
+    progress.finish();
+    let caption = format!(
+        "{command} on {}, {}",
+        suite::Machine::this().describe(),
+        suite::today_utc()
+    );
+    let write = |name: &str, text: &str| {
+        let path = args.out.join(name);
+        std::fs::write(&path, text).map_err(|e| Error::from(raw_formats::FormatError::io(path, e)))
+    };
+    let json = serde_json::to_string_pretty(&results).map_err(|e| Error::Message(e.to_string()))?;
+    write("tune.json", &(json + "\n"))?;
+    let table = results.table();
+    write(
+        "tune.md",
+        &format!("# camsim bench tune\n\n`{caption}`\n\n{table}"),
+    )?;
+    suite::tune::charts(&results, &caption, &args.out)?;
+    let mut out = table;
+    let behind = results.behind_the_peers();
+    if skipped.is_none() {
+        out += &if behind.is_empty() {
+            "\ncamsim is at least as close to the truth as rpi-ctt (colour matrix, every light) \
+             and emva1288 (S and O, every ISO and colour)\n"
+                .to_string()
+        } else {
+            format!(
+                "\nwhere camsim is farther from the truth than its peer:\n  {}\n",
+                behind.join("\n  ")
+            )
+        };
+    } else if let Some(why) = skipped {
+        out += &format!("\nnote: the peers were skipped: {why}\n");
+    }
+    out += &format!("\nwritten: {}\n", args.out.display());
+    Ok(out)
 }
 
 /// The suites' settings for a run into `out` from the environment: the oracle's Python,
@@ -197,6 +272,7 @@ fn suite_settings(out: &Path, quick: bool, data: &Path) -> SuiteSettings {
         learned_python: std::env::var_os("CAMSIM_LEARNED_PYTHON")
             .map(PathBuf::from)
             .unwrap_or_else(|| PathBuf::from(".venv-learned/bin/python")),
+        tune_python: suite::tune::tune_python(),
         command: std::iter::once("camsim".to_string())
             .chain(std::env::args().skip(1))
             .collect::<Vec<_>>()
