@@ -7,6 +7,8 @@
 // Colour and corner indices address several arrays at once.
 #![allow(clippy::needless_range_loop)]
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use camsim::tune::{self, chart, fit, reference, simulate, TuneSettings, Tuned};
@@ -239,13 +241,31 @@ fn check_colour(tuned: &Tuned, truth: &simulate::CaptureTruth, held: &Path, name
             .find(|(cct, _, _)| (**cct - shot.cct).abs() < 1.0)
             .unwrap();
         let mean = shot.delta_e_after.iter().sum::<f64>() / 24.0;
+        // Against the truth: the tuned matrix at the light's CCT on the 24 patches as the
+        // camera sees them noise-free, white-balanced by the light itself (what `camsim bench
+        // tune` measures every tool on).
+        let balanced = simulate::balanced_patches(name, light_name).unwrap();
+        let target =
+            reference::chart_srgb(illuminants.named("illuminant", light_name).unwrap()).unwrap();
+        let ccm = tuned.tuning.ccm_at(shot.cct);
+        let (mut num, mut den) = (0.0, 0.0);
+        for &g in &chart::NEUTRALS[..5] {
+            let out: f64 = (0..3).map(|k| ccm[1][k] * balanced[g][k]).sum();
+            num += out * target[g][1];
+            den += out * out;
+        }
+        let truth_errors = fit::ccm_errors(&ccm, num / den, &balanced, &target);
+        let on_truth = truth_errors.iter().sum::<f64>() / 24.0;
         println!(
-            "{name} {light_name}: CCM mean CIEDE2000 {mean:.2} (max {:.2}), before {:.2}",
+            "{name} {light_name}: CCM mean CIEDE2000 {on_truth:.2} on the true patches (max {:.2}); {mean:.2} on the sampled ones it was fitted to (max {:.2}), before the matrix {:.2}",
+            truth_errors.iter().fold(0.0f64, |a, &b| a.max(b)),
             shot.delta_e_after.iter().fold(0.0f64, |a, &b| a.max(b)),
             shot.delta_e_before.iter().sum::<f64>() / 24.0
         );
-        // The issue asks 1.0; a 3x3 matrix that keeps white white reaches 0.9-1.3 on these
-        // responses even without noise (see the README's table): held to 1.5 here.
+        assert!(
+            on_truth <= 1.0,
+            "{name} {light_name}: mean CIEDE2000 {on_truth} on the true patches"
+        );
         assert!(mean <= 1.5, "{name} {light_name}: mean CIEDE2000 {mean}");
     }
     // Held out: chart found, sampled with the tuning's shading and defects, white balanced
@@ -354,12 +374,12 @@ fn check_isp_uses_it(
     let illuminants = Table::parse(host_tracer::spectra::ILLUMINANTS).unwrap();
     let target = reference::chart_srgb(illuminants.named("illuminant", HELD_OUT).unwrap()).unwrap();
     let map = spec.chart.map(spec.width, spec.height);
-    let score = |options: &IspOptions| -> f64 {
+    let score_of = |input: &RawInput, options: &IspOptions| -> f64 {
         let run = RunOptions {
             threads: 1,
             stage_times: false,
         };
-        let (_, image) = develop(&input, options, None, run).unwrap();
+        let (_, image) = develop(input, options, None, run).unwrap();
         let pitch = map.pitch_px();
         let patches: Vec<[f64; 3]> = (0..24)
             .map(|i| {
@@ -400,7 +420,7 @@ fn check_isp_uses_it(
         black_level: Some(vec![truth.black]),
         ..IspOptions::default()
     };
-    let (with, without) = (score(&applied.options), score(&plain));
+    let (with, without) = (score_of(&input, &applied.options), score_of(&input, &plain));
     println!(
         "{name} held out {HELD_OUT} through the ISP: locus {:.0} K, output mean CIEDE2000 {with:.2} with the tuning, {without:.2} without",
         applied.cct
@@ -409,6 +429,49 @@ fn check_isp_uses_it(
         with < 3.0 && with < 0.5 * without,
         "{name}: {with} with the tuning, {without} without"
     );
+
+    // The DNG a camera holding the tuning writes (what `camsim demo --tuning` and `camsim
+    // dataset --tuning` write) develops with no options as the tuning does: its tags carry
+    // the black level, defects, noise, white balance, shading and colour.
+    let mut dng = raw_formats::dng::Dng::read(held).unwrap();
+    let carried_applied = tune::carry_in_dng(
+        &tuned.tuning,
+        &mut dng,
+        isp_core::wb::AwbMethod::GreyWorld,
+        Some(100.0),
+    )
+    .unwrap();
+    assert_eq!(carried_applied.gains, applied.gains);
+    let carried_path = held.with_extension("tuned.dng");
+    dng.write(&carried_path).unwrap();
+    let carried = RawInput::read(&carried_path).unwrap();
+    let back = raw_formats::dng::Dng::read(&carried_path).unwrap();
+    assert_eq!(
+        Some(back.processing.bad_pixels.clone()),
+        applied.options.defects,
+        "{name}: the defect map read back"
+    );
+    assert_eq!(back.processing.noise_profile, applied.options.noise_profile);
+    assert_eq!(
+        back.image.black_level.map(u32::from).to_vec(),
+        applied
+            .options
+            .black_level
+            .clone()
+            .unwrap()
+            .iter()
+            .map(|&b| u32::from(b))
+            .collect::<Vec<_>>()
+    );
+    let from_tags = score_of(&carried, &IspOptions::default());
+    println!(
+        "{name} held out {HELD_OUT}, its DNG carrying the tuning, developed from its tags alone: mean CIEDE2000 {from_tags:.2}"
+    );
+    assert!(
+        from_tags < 3.0 && (from_tags - with).abs() < 0.5,
+        "{name}: {from_tags} from the DNG's tags, {with} with the tuning"
+    );
+    let _ = std::fs::remove_file(&carried_path);
 }
 
 #[test]
@@ -577,4 +640,409 @@ fn untunable_sets_are_refused_with_the_file_named() {
     // And a set that tunes writes whole or not at all: nothing partial is left.
     let _ = std::fs::remove_dir_all(&dir);
     let _ = std::fs::remove_dir_all(&clipped);
+}
+
+/// Hostile and damaged DNGs in the folder are refused one by one, each with its name, never
+/// a panic: a chart shot cut short at many lengths, and with bytes of its header and IFDs
+/// overwritten (sizes, offsets, counts, types), each put beside a good set in turn.
+#[test]
+fn hostile_dngs_are_refused_one_by_one() {
+    let dir = scratch("hostile");
+    let mut spec = simulate::CaptureSetSpec::standard(SensorConfig::realistic());
+    spec.width = 160;
+    spec.height = 120;
+    spec.ptc_isos.clear();
+    spec.darks = 1;
+    spec.flats_per_illuminant = 1;
+    spec.chart_illuminants = vec!["A".into(), "D65".into()];
+    let truth = simulate::write_capture_set(&spec, &dir, &mut |_| {}).unwrap();
+    let good = truth
+        .files
+        .iter()
+        .find(|f| f.to_string_lossy().contains("_6504k_"))
+        .or_else(|| {
+            truth
+                .files
+                .iter()
+                .find(|f| f.extension().is_some_and(|e| e == "dng"))
+        })
+        .unwrap();
+    let bytes = std::fs::read(good).unwrap();
+    // The set reads as it is.
+    tune::read_captures(&dir, &mut |_| {}).expect("the good set reads");
+
+    let mut mutants: Vec<(String, Vec<u8>)> = Vec::new();
+    for k in 0..40 {
+        let len = bytes.len() * k / 40;
+        mutants.push((format!("cut at {len} bytes"), bytes[..len].to_vec()));
+    }
+    // The structure sits before the samples: overwrite there, one to four bytes at a time,
+    // with what breaks readers (zeros, all ones, large counts and offsets).
+    let structure = bytes.len().min(1024);
+    let mut state: u64 = 0x9e37_79b9_7f4a_7c15;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state
+    };
+    for _ in 0..200 {
+        let at = (next() % structure as u64) as usize;
+        let run = 1 + (next() % 4) as usize;
+        let value = match next() % 4 {
+            0 => 0x00,
+            1 => 0xff,
+            2 => 0x7f,
+            _ => (next() & 0xff) as u8,
+        };
+        let mut m = bytes.clone();
+        for b in m.iter_mut().skip(at).take(run) {
+            *b = value;
+        }
+        mutants.push((format!("{run} bytes at {at} set to {value:#04x}"), m));
+    }
+    let (mut refused, mut read) = (0, 0);
+    for (what, data) in &mutants {
+        let name = "hostile_5000k_100l.dng";
+        let path = dir.join(name);
+        std::fs::write(&path, data).unwrap();
+        let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            tune::read_captures(&dir, &mut |_| {})
+        }));
+        match outcome {
+            Err(_) => panic!("a hostile DNG ({what}) panicked the reader"),
+            Ok(Err(e)) => {
+                let e = e.to_string();
+                assert!(
+                    e.contains(name),
+                    "{what}: refused without the file's name: {e}"
+                );
+                refused += 1;
+            }
+            // A change the file survives (a byte of a tag the reader does not use): it reads
+            // as a capture like the others.
+            Ok(Ok(_)) => read += 1,
+        }
+        std::fs::remove_file(&path).unwrap();
+    }
+    println!(
+        "{} hostile DNGs: {refused} refused with their name, {read} still read as captures",
+        mutants.len()
+    );
+    assert!(refused >= 40, "only {refused} refused");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The tuning peers' Python (`scripts/test-all.sh` makes `.venv-tune`; `$CAMSIM_TUNE_PYTHON`
+/// overrides), or `None` with a note where it is missing and not required (outside CI).
+fn tune_python() -> Option<PathBuf> {
+    let python = std::env::var_os("CAMSIM_TUNE_PYTHON")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../.venv-tune/bin/python"));
+    if python.is_file() {
+        return Some(python);
+    }
+    let why = format!(
+        "no tuning peers' Python at {} (scripts/test-all.sh makes .venv-tune)",
+        python.display()
+    );
+    if std::env::var_os("CAMSIM_REQUIRE_ORACLE").is_some() {
+        panic!("{why}; required here (CAMSIM_REQUIRE_ORACLE is set)");
+    }
+    eprintln!("NOTE: {why}: the comparison did not run; CI requires it");
+    None
+}
+
+/// The same drawn charts through colour-checker-detection (PyPI, its segmentation detector)
+/// and camsim's detector. Each frame is shown to colour-checker-detection as an 8-bit sRGB
+/// PNG at half size (each 2x2 block one pixel, white-balanced on the chart's white); camsim
+/// detects on the raw mosaic and samples the same PNG at the patch centres it found. A patch
+/// is identified when its sampled colour is nearer its own drawn colour than any other's.
+#[test]
+fn chart_detection_beside_colour_checker_detection() {
+    let Some(python) = tune_python() else {
+        return;
+    };
+    let dir = scratch("ccd");
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut spec = simulate::CaptureSetSpec::standard(SensorConfig::realistic());
+    let placements = [
+        ([0.5, 0.5], 0.3, 0.0, true),
+        ([0.4, 0.45], 0.45, 10.0, false),
+        ([0.6, 0.55], 0.6, -10.0, true),
+        ([0.5, 0.5], 0.8, 3.0, false),
+        ([0.3, 0.3], 0.3, -6.0, false),
+        ([0.55, 0.5], 0.5, 7.0, true),
+        ([0.45, 0.55], 0.7, -4.0, true),
+        ([0.6, 0.4], 0.35, 2.0, false),
+    ];
+    let (w, h) = (spec.width / 2, spec.height / 2);
+    let mut frames = Vec::new();
+    let mut ours = Vec::new();
+    for (k, (centre, width_fraction, rotation_deg, border)) in placements.into_iter().enumerate() {
+        spec.chart = simulate::ChartPlacement {
+            centre,
+            width_fraction,
+            rotation_deg,
+            border,
+        };
+        let raw = simulate::chart_frame(&spec, "D65").unwrap();
+        let black = raw.black_level.map(f64::from);
+        let sample = |x: usize, y: usize| f64::from(raw.samples[y * raw.width + x]);
+        // Half size, each block's red, mean green and blue above black.
+        let mut rgb = vec![[0.0f64; 3]; w * h];
+        for by in 0..h {
+            for bx in 0..w {
+                let mut sum = [0.0; 3];
+                let mut count = [0.0; 3];
+                for p in 0..4 {
+                    let (x, y) = (2 * bx + p % 2, 2 * by + p / 2);
+                    let c = raw.pattern.colour_at(x, y).index();
+                    sum[c] += sample(x, y) - black[(y % 2) * 2 + x % 2];
+                    count[c] += 1.0;
+                }
+                rgb[by * w + bx] = std::array::from_fn(|c| sum[c] / count[c]);
+            }
+        }
+        let truth_map = spec.chart.map(spec.width, spec.height);
+        let at = |img: &[[f64; 3]], [cx, cy]: [f64; 2]| -> [f64; 3] {
+            let r = (0.15 * truth_map.pitch_px() / 2.0).max(1.0) as isize;
+            let (x0, y0) = ((cx / 2.0) as isize, (cy / 2.0) as isize);
+            let mut sum = [0.0; 3];
+            let mut n = 0.0f64;
+            for dy in -r..=r {
+                for dx in -r..=r {
+                    let (x, y) = (x0 + dx, y0 + dy);
+                    if x >= 0 && y >= 0 && (x as usize) < w && (y as usize) < h {
+                        let v = img[y as usize * w + x as usize];
+                        for c in 0..3 {
+                            sum[c] += v[c];
+                        }
+                        n += 1.0;
+                    }
+                }
+            }
+            sum.map(|s| s / n.max(1.0))
+        };
+        let white = at(&rgb, truth_map.patch_centre(18));
+        let encoded: Vec<[f64; 3]> = rgb
+            .iter()
+            .map(|p| {
+                std::array::from_fn(|c| {
+                    let v = (0.9 * p[c] / white[c]).clamp(0.0, 1.0) as f32;
+                    (f64::from(isp_core::srgb::encode(v)) * 255.0).round() / 255.0
+                })
+            })
+            .collect();
+        let png = dir.join(format!("chart_{k}.png"));
+        raw_formats::image::write(
+            &png,
+            &raw_formats::image::Image {
+                width: w,
+                height: h,
+                channels: 3,
+                bits: 8,
+                data: encoded
+                    .iter()
+                    .flat_map(|p| p.map(|v| (v * 255.0).round() as u16))
+                    .collect(),
+            },
+        )
+        .unwrap();
+        let truth: Vec<[f64; 3]> = (0..24)
+            .map(|i| at(&encoded, truth_map.patch_centre(i)))
+            .collect();
+        // camsim: found on the raw mosaic, sampled on the same PNG.
+        let identified = match chart::detect(&chart::Mosaic::of(&raw, black)) {
+            Ok(corners) => {
+                let map = chart::ChartMap::from_corners(&corners).unwrap();
+                (0..24)
+                    .filter(|&i| {
+                        let got = at(&encoded, map.patch_centre(i));
+                        let d = |t: &[f64; 3]| (0..3).map(|c| (got[c] - t[c]).powi(2)).sum::<f64>();
+                        (0..24).all(|j| j == i || d(&truth[i]) < d(&truth[j]))
+                    })
+                    .count()
+            }
+            Err(_) => 0,
+        };
+        ours.push(identified);
+        frames.push(serde_json::json!({"png": png, "truth": truth}));
+    }
+    let request = serde_json::json!({ "frames": frames });
+    let output = std::process::Command::new(&python)
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/peers/ccd_detect.py"))
+        .arg(request.to_string())
+        .output()
+        .unwrap();
+    assert!(
+        output.status.success(),
+        "colour-checker-detection: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let reply: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    println!(
+        "chart detection, patches identified of 24 (camsim / colour-checker-detection {}):",
+        reply["versions"]["colour-checker-detection"]
+    );
+    let mut theirs_total = 0;
+    for (k, (placement, mine)) in placements.iter().zip(&ours).enumerate() {
+        let theirs = &reply["frames"][k];
+        let identified = theirs["identified"].as_u64().unwrap() as usize;
+        theirs_total += identified;
+        println!(
+            "  centre {:?}, width {}, {} degrees, border {}: camsim {mine}, colour-checker-detection {identified} ({} checkers{})",
+            placement.0,
+            placement.1,
+            placement.2,
+            placement.3,
+            theirs["checkers"],
+            theirs["error"].as_str().map(|e| format!("; {e}")).unwrap_or_default()
+        );
+        assert_eq!(*mine, 24, "camsim identified {mine} patches in frame {k}");
+    }
+    let ours_total: usize = ours.iter().sum();
+    assert!(
+        ours_total >= theirs_total,
+        "camsim {ours_total}, colour-checker-detection {theirs_total}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `camsim demo --tuning` and `camsim dataset --tuning` develop with a tuning and write DNGs
+/// that carry it: read back, their black level, noise profile, defect map (FixBadPixelsList)
+/// and shading (GainMaps) are the tuning's; a dataset folder keeps one tuning; a tuning of
+/// another camera mode is refused before anything renders.
+#[test]
+fn demo_and_dataset_write_dngs_carrying_the_tuning() {
+    let dir = scratch("carry");
+    let mut spec = simulate::CaptureSetSpec::standard(SensorConfig::realistic());
+    spec.width = 240;
+    spec.height = 180;
+    spec.ptc_isos = vec![100.0];
+    spec.ptc_levels = vec![0.05, 0.2, 0.45, 0.75];
+    spec.darks = 2;
+    spec.flats_per_illuminant = 1;
+    let captures = dir.join("captures");
+    simulate::write_capture_set(&spec, &captures, &mut |_| {}).unwrap();
+    let tuned = tune::tune(&TuneSettings::new(&captures), &mut |_| {}).expect("the set tunes");
+    let tuning = dir.join("tuning.toml");
+    tune::write_atomically(&tuning, &tuned.tuning.to_toml().unwrap()).unwrap();
+    let t = &tuned.tuning;
+    let planted = t.defects.hot.len() + t.defects.dead.len() + t.defects.stuck.len();
+    assert!(planted > 0, "the set has defects to carry");
+    let check_dng = |path: &Path| {
+        let dng = raw_formats::dng::Dng::read(path).unwrap();
+        let black = t.black_level.values.map(|v| v.round() as u16);
+        assert_eq!(dng.image.black_level, black, "{}", path.display());
+        let noise = dng.processing.noise_profile.expect("a NoiseProfile");
+        assert!(
+            (f64::from(noise.scale()[1]) - t.noise[0].scale[1]).abs()
+                < 1e-6 * t.noise[0].scale[1].abs() + 1e-12,
+            "{}: noise {:?} against {:?}",
+            path.display(),
+            noise,
+            t.noise[0]
+        );
+        assert_eq!(
+            dng.processing.bad_pixels.len(),
+            planted,
+            "{}",
+            path.display()
+        );
+        let gain_maps = dng.processing.opcode_lists[1]
+            .iter()
+            .filter(|op| matches!(op, raw_formats::dng::opcodes::Opcode::GainMap(_)))
+            .count();
+        assert_eq!(gain_maps, 4, "{}", path.display());
+        assert_eq!(dng.colour.calibrations.len(), 2);
+        assert!(dng.processing.iso.is_some() && dng.processing.exposure_time_s.is_some());
+    };
+
+    let demo_out = dir.join("demo");
+    let (ok, stdout, stderr) = common::camsim(&[
+        "demo",
+        "--scene",
+        "demo",
+        "--width",
+        "240",
+        "--height",
+        "180",
+        "--spp",
+        "2",
+        "--output",
+        demo_out.to_str().unwrap(),
+        "--tuning",
+        tuning.to_str().unwrap(),
+    ]);
+    assert!(ok, "camsim demo --tuning: {stderr}");
+    assert!(stdout.contains("tuning:"), "{stdout}");
+    check_dng(&demo_out.join("raw.dng"));
+    // Another camera mode is refused, naming the tuning.
+    let (ok, _, stderr) = common::camsim(&[
+        "demo",
+        "--width",
+        "200",
+        "--height",
+        "150",
+        "--spp",
+        "1",
+        "--output",
+        demo_out.to_str().unwrap(),
+        "--tuning",
+        tuning.to_str().unwrap(),
+    ]);
+    assert!(!ok && stderr.contains("tuning.toml"), "{stderr}");
+
+    let spec_path = dir.join("spec.toml");
+    std::fs::write(
+        &spec_path,
+        "[dataset]\nseed = 3\ncount = 1\nwidth = 240\nheight = 180\nspp = 1\nisp = true\n\n\
+         [scene]\ngenerators = [\"colorchecker\"]\n\n[sensor]\ncamera = \"nikon-5100\"\n",
+    )
+    .unwrap();
+    let out = dir.join("dataset");
+    let (ok, _, stderr) = common::camsim(&[
+        "dataset",
+        "--spec",
+        spec_path.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--tuning",
+        tuning.to_str().unwrap(),
+    ]);
+    assert!(ok, "camsim dataset --tuning: {stderr}");
+    check_dng(&out.join("000000/raw.dng"));
+    assert!(out.join("tuning.toml").is_file());
+    let record = std::fs::read_to_string(out.join("000000/record.json")).unwrap();
+    assert!(record.contains("\"tuning\""), "{record}");
+    // The same folder without the tuning is another dataset: refused.
+    let (ok, _, stderr) = common::camsim(&[
+        "dataset",
+        "--spec",
+        spec_path.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!ok && stderr.contains("tuning"), "{stderr}");
+    // A spec whose samples are of another size than the tuning's: refused at once.
+    let small = dir.join("small.toml");
+    std::fs::write(
+        &small,
+        std::fs::read_to_string(&spec_path)
+            .unwrap()
+            .replace("width = 240", "width = 200"),
+    )
+    .unwrap();
+    let (ok, _, stderr) = common::camsim(&[
+        "dataset",
+        "--spec",
+        small.to_str().unwrap(),
+        "--out",
+        dir.join("other").to_str().unwrap(),
+        "--tuning",
+        tuning.to_str().unwrap(),
+    ]);
+    assert!(!ok && stderr.contains("240x180"), "{stderr}");
+    let _ = std::fs::remove_dir_all(&dir);
 }
