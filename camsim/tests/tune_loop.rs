@@ -248,13 +248,7 @@ fn check_colour(tuned: &Tuned, truth: &simulate::CaptureTruth, held: &Path, name
         let target =
             reference::chart_srgb(illuminants.named("illuminant", light_name).unwrap()).unwrap();
         let ccm = tuned.tuning.ccm_at(shot.cct);
-        let (mut num, mut den) = (0.0, 0.0);
-        for &g in &chart::NEUTRALS[..5] {
-            let out: f64 = (0..3).map(|k| ccm[1][k] * balanced[g][k]).sum();
-            num += out * target[g][1];
-            den += out * out;
-        }
-        let truth_errors = fit::ccm_errors(&ccm, num / den, &balanced, &target);
+        let truth_errors = fit::ccm_errors_at_grey_exposure(&ccm, &balanced, &target);
         let on_truth = truth_errors.iter().sum::<f64>() / 24.0;
         println!(
             "{name} {light_name}: CCM mean CIEDE2000 {on_truth:.2} on the true patches (max {:.2}); {mean:.2} on the sampled ones it was fitted to (max {:.2}), before the matrix {:.2}",
@@ -332,17 +326,20 @@ fn check_colour(tuned: &Tuned, truth: &simulate::CaptureTruth, held: &Path, name
         .collect();
     let target = reference::chart_srgb(illuminants.named("illuminant", HELD_OUT).unwrap()).unwrap();
     // The exposure is the ISP's, not the matrix's: the best scale, as for the fitted lights.
-    let (mut num, mut den) = (0.0, 0.0);
-    for &g in &chart::NEUTRALS[..5] {
-        let out: f64 = (0..3).map(|k| ccm[1][k] * balanced[g][k]).sum();
-        num += out * target[g][1];
-        den += out * out;
-    }
-    let errors = fit::ccm_errors(&ccm, num / den, &balanced, &target);
+    let errors = fit::ccm_errors_at_grey_exposure(&ccm, &balanced, &target);
     let mean = errors.iter().sum::<f64>() / 24.0;
+    let true_patches = simulate::balanced_patches(name, HELD_OUT).unwrap();
+    let on_truth = fit::ccm_errors_at_grey_exposure(&ccm, &true_patches, &target)
+        .iter()
+        .sum::<f64>()
+        / 24.0;
     println!(
-        "{name} held out {HELD_OUT} ({true_cct} K): locus CCT {cct:.0} K, white balance {angle:.2} degrees off, CCM mean CIEDE2000 {mean:.2} (max {:.2})",
+        "{name} held out {HELD_OUT} ({true_cct} K): locus CCT {cct:.0} K, white balance {angle:.2} degrees off, CCM mean CIEDE2000 {mean:.2} (max {:.2}) on the sampled patches, {on_truth:.2} on the true ones",
         errors.iter().fold(0.0f64, |a, &b| a.max(b))
+    );
+    assert!(
+        on_truth <= 2.0,
+        "{name}: held-out mean CIEDE2000 {on_truth} on the true patches"
     );
     assert!(
         angle <= 1.0,

@@ -33,15 +33,26 @@ fn figure<'a>(
     title: &str,
     r: &SuiteResults,
 ) -> Result<DrawingArea<SVGBackend<'a>, plotters::coord::Shift>, Box<dyn std::error::Error>> {
+    captioned(root, title, 22, &caption(r))
+}
+
+/// The figure's area filled white, less the `caption` line at the bottom, with the title drawn
+/// at `title_size`.
+pub(super) fn captioned<'a>(
+    root: &DrawingArea<SVGBackend<'a>, plotters::coord::Shift>,
+    title: &str,
+    title_size: u32,
+    caption: &str,
+) -> Result<DrawingArea<SVGBackend<'a>, plotters::coord::Shift>, Box<dyn std::error::Error>> {
     root.fill(&WHITE)?;
     let (_, height) = root.dim_in_pixel();
     let (body, foot) = root.split_vertically(height - 28);
     foot.draw(&Text::new(
-        caption(r),
+        caption.to_string(),
         (10, 6),
         (FONT, 13).into_font().color(&BLACK.mix(0.7)),
     ))?;
-    Ok(body.titled(title, (FONT, 22))?)
+    Ok(body.titled(title, (FONT, title_size))?)
 }
 
 /// Chart 1: Mpix/s (log) against CPSNR, a panel per set and depth, every method of every
@@ -1055,17 +1066,11 @@ pub fn denoise(d: &super::DenoiseSuite, caption: &str, path: &Path) -> Result<()
 fn draw_denoise(d: &super::DenoiseSuite, caption: &str, path: &Path) -> Drawn {
     use super::denoise::SCALES;
     let root = SVGBackend::new(path, (1300, 560)).into_drawing_area();
-    root.fill(&WHITE)?;
-    let (_, height) = root.dim_in_pixel();
-    let (body, foot) = root.split_vertically(height - 28);
-    foot.draw(&Text::new(
-        caption.to_string(),
-        (10, 6),
-        (FONT, 13).into_font().color(&BLACK.mix(0.7)),
-    ))?;
-    let body = body.titled(
+    let body = captioned(
+        &root,
         "Noise reduction on noisy 12-bit raws (Kodak, McMaster)",
-        (FONT, 22),
+        22,
+        caption,
     )?;
     let panels = body.split_evenly((1, 2));
     let summary = d.summary();

@@ -36,7 +36,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{run_python, ProgressFn, SuiteSettings};
 use crate::error::Error;
-use crate::tune::{self, chart, fit, reference, simulate, TuneSettings};
+use crate::tune::{self, fit, reference, simulate, TuneSettings};
 use host_tracer::sensor::SensorConfig;
 use simulate::CaptureSetSpec;
 
@@ -397,7 +397,7 @@ pub fn tune_suite(
                 tools.push((RPI_CTT, t.ccm_at(cct)));
             }
             for (tool, ccm) in tools {
-                let delta_e = matrix_errors(&ccm, &balanced, &target);
+                let delta_e = fit::ccm_errors_at_grey_exposure(&ccm, &balanced, &target);
                 figures.ccm.push(CcmFigure {
                     illuminant: name.clone(),
                     cct,
@@ -505,17 +505,6 @@ pub fn tune_suite(
         suite.cameras.push(figures);
     }
     Ok(suite)
-}
-
-/// CIEDE2000 per patch of `ccm` on white-balanced camera RGB, exposure scaled to the greys.
-fn matrix_errors(ccm: &[[f64; 3]; 3], balanced: &[[f64; 3]], target: &[[f64; 3]]) -> Vec<f64> {
-    let (mut num, mut den) = (0.0, 0.0);
-    for &g in &chart::NEUTRALS[..5] {
-        let out: f64 = (0..3).map(|k| ccm[1][k] * balanced[g][k]).sum();
-        num += out * target[g][1];
-        den += out * out;
-    }
-    fit::ccm_errors(ccm, num / den.max(f64::MIN_POSITIVE), balanced, target)
 }
 
 /// The shading left after `gain` (pixel -> gain) on colour `c`: (largest at the corners, RMS
@@ -867,17 +856,11 @@ fn draw_summary(suite: &TuneSuite, caption: &str, path: &Path) -> Drawn {
     use plotters::prelude::*;
     let rows = suite.cameras.len().max(1);
     let root = SVGBackend::new(path, (1500, 340 * rows as u32 + 70)).into_drawing_area();
-    root.fill(&WHITE)?;
-    let (_, height) = root.dim_in_pixel();
-    let (body, foot) = root.split_vertically(height - 28);
-    foot.draw(&Text::new(
-        caption.to_string(),
-        (10, 6),
-        (FONT, 13).into_font().color(&BLACK.mix(0.7)),
-    ))?;
-    let body = body.titled(
+    let body = super::charts::captioned(
+        &root,
         "camsim tune against rpi-ctt and emva1288 on the same simulated captures (lower is better)",
-        (FONT, 20),
+        20,
+        caption,
     )?;
     for (row, cam) in body.split_evenly((rows, 1)).iter().zip(&suite.cameras) {
         let panels = row.split_evenly((1, 3));
@@ -987,17 +970,11 @@ fn draw_patches(suite: &TuneSuite, caption: &str, path: &Path) -> Drawn {
         .collect();
     let n = panels.len().max(1);
     let root = SVGBackend::new(path, (1300, 230 * n as u32 + 70)).into_drawing_area();
-    root.fill(&WHITE)?;
-    let (_, height) = root.dim_in_pixel();
-    let (body, foot) = root.split_vertically(height - 28);
-    foot.draw(&Text::new(
-        caption.to_string(),
-        (10, 6),
-        (FONT, 13).into_font().color(&BLACK.mix(0.7)),
-    ))?;
-    let body = body.titled(
+    let body = super::charts::captioned(
+        &root,
         "CIEDE2000 per ColorChecker patch after each tool's colour matrix (noise-free patches, white-balanced by the light)",
-        (FONT, 18),
+        18,
+        caption,
     )?;
     let labels: Vec<String> = (1..=24).map(|i| i.to_string()).collect();
     for (area, (cam, light)) in body.split_evenly((n, 1)).iter().zip(&panels) {

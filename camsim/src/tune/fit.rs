@@ -451,6 +451,23 @@ pub struct CcmFit {
     pub delta_e: Vec<f64>,
 }
 
+/// [`ccm_errors`] with the exposure the ISP would give (not the matrix's business): scaled so
+/// the matrix's green on the five brighter greys (white to neutral 3.5) matches the target's
+/// by least squares.
+pub fn ccm_errors_at_grey_exposure(
+    matrix: &[[f64; 3]; 3],
+    camera: &[[f64; 3]],
+    target: &[[f64; 3]],
+) -> Vec<f64> {
+    let (mut num, mut den) = (0.0, 0.0);
+    for &g in &super::chart::NEUTRALS[..5] {
+        let out: f64 = (0..3).map(|k| matrix[1][k] * camera[g][k]).sum();
+        num += out * target[g][1];
+        den += out * out;
+    }
+    ccm_errors(matrix, num / den.max(f64::MIN_POSITIVE), camera, target)
+}
+
 /// Per-patch CIEDE2000 of `matrix` and `scale` on white-balanced `camera` against `target`.
 pub fn ccm_errors(
     matrix: &[[f64; 3]; 3],
