@@ -474,9 +474,7 @@ fn apply_tuning(
     let Some(path) = options.tuning.clone() else {
         return Ok((options, None));
     };
-    let text =
-        std::fs::read_to_string(&path).map_err(|e| raw_formats::FormatError::io(&path, e))?;
-    let tuning = crate::tune::Tuning::from_toml(&text).map_err(|e| e.in_file(&path))?;
+    let tuning = crate::tune::Tuning::read(&path)?;
     let method = match options.white_balance {
         Some(WhiteBalance::Auto(m)) => m,
         _ => isp_core::wb::AwbMethod::GreyWorld,

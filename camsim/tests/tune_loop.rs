@@ -21,6 +21,18 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
+/// A small set of the realistic sensor: `width x height`, one dark, one flat per light, no
+/// photon-transfer pairs (the noise from the chart patches).
+fn small_set(width: usize, height: usize) -> simulate::CaptureSetSpec {
+    let mut spec = simulate::CaptureSetSpec::standard(SensorConfig::realistic());
+    spec.width = width;
+    spec.height = height;
+    spec.ptc_isos.clear();
+    spec.darks = 1;
+    spec.flats_per_illuminant = 1;
+    spec
+}
+
 /// The held-out light: shot, then moved out of the folder before tuning.
 const HELD_OUT: &str = "D50";
 
@@ -196,24 +208,9 @@ fn check_shading(
     let t = &tuned.tuning;
     for table in &t.shading.colour {
         for c in 0..3 {
-            let corrected = |x: f64, y: f64| {
-                truth.shading.factor(x, y, c) * t.shading_gain(x + 0.5, y + 0.5, c, table.cct)
-            };
+            let gain = |x: f64, y: f64| t.shading_gain(x + 0.5, y + 0.5, c, table.cct);
+            let (corner, rms) = simulate::shading_residual(&truth.shading, spec, c, &gain);
             let (cx, cy) = (spec.width as f64 / 2.0, spec.height as f64 / 2.0);
-            let centre = corrected(cx, cy);
-            let (mut sum2, mut n, mut corner) = (0.0, 0.0, 0.0f64);
-            for y in (0..spec.height).step_by(4) {
-                for x in (0..spec.width).step_by(4) {
-                    let r = corrected(x as f64, y as f64) / centre - 1.0;
-                    sum2 += r * r;
-                    n += 1.0;
-                }
-            }
-            let (w1, h1) = ((spec.width - 1) as f64, (spec.height - 1) as f64);
-            for (x, y) in [(0.0, 0.0), (w1, 0.0), (0.0, h1), (w1, h1)] {
-                corner = corner.max((corrected(x, y) / centre - 1.0).abs());
-            }
-            let rms = (sum2 / n).sqrt();
             println!(
                 "{name} shading {} K colour {c}: residual {:.2} % at the corners, {:.2} % RMS (uncorrected corner {:.1} %)",
                 table.cct,
@@ -577,21 +574,13 @@ fn chart_is_found_where_it_was_drawn() {
 /// Sets that cannot be tuned are refused before any fit, naming the file.
 #[test]
 fn untunable_sets_are_refused_with_the_file_named() {
-    let small = |spec: &mut simulate::CaptureSetSpec| {
-        spec.width = 240;
-        spec.height = 180;
-        spec.ptc_isos.clear();
-        spec.darks = 1;
-        spec.flats_per_illuminant = 1;
-    };
     let tune_dir = |dir: &Path, case: &str| match tune::tune(&TuneSettings::new(dir), &mut |_| {}) {
         Ok(_) => panic!("{case}: tuned"),
         Err(e) => e.to_string(),
     };
     // One light only.
     let dir = scratch("one-light");
-    let mut spec = simulate::CaptureSetSpec::standard(SensorConfig::realistic());
-    small(&mut spec);
+    let mut spec = small_set(240, 180);
     spec.chart_illuminants = vec!["D65".into()];
     simulate::write_capture_set(&spec, &dir, &mut |_| {}).unwrap();
     let e = tune_dir(&dir, "one light");
@@ -599,9 +588,7 @@ fn untunable_sets_are_refused_with_the_file_named() {
     // A frame of another size.
     spec.chart_illuminants = vec!["A".into(), "D65".into()];
     simulate::write_capture_set(&spec, &dir, &mut |_| {}).unwrap();
-    let mut other = simulate::CaptureSetSpec::standard(SensorConfig::realistic());
-    small(&mut other);
-    other.width = 256;
+    let mut other = small_set(256, 180);
     other.flat_illuminants.clear();
     other.chart_illuminants = vec!["D50".into()];
     let odd = dir.join("zz");
@@ -645,12 +632,7 @@ fn untunable_sets_are_refused_with_the_file_named() {
 #[test]
 fn hostile_dngs_are_refused_one_by_one() {
     let dir = scratch("hostile");
-    let mut spec = simulate::CaptureSetSpec::standard(SensorConfig::realistic());
-    spec.width = 160;
-    spec.height = 120;
-    spec.ptc_isos.clear();
-    spec.darks = 1;
-    spec.flats_per_illuminant = 1;
+    let mut spec = small_set(160, 120);
     spec.chart_illuminants = vec!["A".into(), "D65".into()];
     let truth = simulate::write_capture_set(&spec, &dir, &mut |_| {}).unwrap();
     let good = truth
@@ -913,13 +895,10 @@ fn chart_detection_beside_colour_checker_detection() {
 #[test]
 fn demo_and_dataset_write_dngs_carrying_the_tuning() {
     let dir = scratch("carry");
-    let mut spec = simulate::CaptureSetSpec::standard(SensorConfig::realistic());
-    spec.width = 240;
-    spec.height = 180;
+    let mut spec = small_set(240, 180);
     spec.ptc_isos = vec![100.0];
     spec.ptc_levels = vec![0.05, 0.2, 0.45, 0.75];
     spec.darks = 2;
-    spec.flats_per_illuminant = 1;
     let captures = dir.join("captures");
     simulate::write_capture_set(&spec, &captures, &mut |_| {}).unwrap();
     let tuned = tune::tune(&TuneSettings::new(&captures), &mut |_| {}).expect("the set tunes");
@@ -930,7 +909,7 @@ fn demo_and_dataset_write_dngs_carrying_the_tuning() {
     assert!(planted > 0, "the set has defects to carry");
     let check_dng = |path: &Path| {
         let dng = raw_formats::dng::Dng::read(path).unwrap();
-        let black = t.black_level.values.map(|v| v.round() as u16);
+        let black = t.black_dn();
         assert_eq!(dng.image.black_level, black, "{}", path.display());
         let noise = dng.processing.noise_profile.expect("a NoiseProfile");
         assert!(

@@ -198,7 +198,11 @@ struct CttTables {
 }
 
 impl CttTables {
-    fn from_json(tuning: &serde_json::Value) -> Result<CttTables, String> {
+    fn from_json(tuning: &serde_json::Value) -> Result<CttTables, super::PeerError> {
+        let malformed = |problem: String| super::PeerError::Reply {
+            script: "rpi-ctt's tuning file",
+            problem,
+        };
         let numbers = |v: &serde_json::Value| -> Option<Vec<f64>> {
             v.as_array()?
                 .iter()
@@ -207,7 +211,7 @@ impl CttTables {
         };
         let ccms = tuning["rpi.ccm"]["ccms"]
             .as_array()
-            .ok_or("no rpi.ccm ccms in its tuning")?
+            .ok_or_else(|| malformed("no rpi.ccm ccms".into()))?
             .iter()
             .map(|e| {
                 let ct = e["ct"].as_f64()?;
@@ -218,27 +222,28 @@ impl CttTables {
                 ))
             })
             .collect::<Option<Vec<_>>>()
-            .ok_or("a malformed rpi.ccm entry")?;
+            .ok_or_else(|| malformed("a malformed rpi.ccm entry".into()))?;
         let alsc = &tuning["rpi.alsc"];
-        let luminance = numbers(&alsc["luminance_lut"]).ok_or("no rpi.alsc luminance_lut")?;
+        let luminance = numbers(&alsc["luminance_lut"])
+            .ok_or_else(|| malformed("no rpi.alsc luminance_lut".into()))?;
         let grid = match luminance.len() {
             1024 => (32, 32),
             192 => (16, 12),
             n => {
-                return Err(format!(
+                return Err(malformed(format!(
                     "an ALSC table of {n} entries (not PiSP's or VC4's)"
-                ))
+                )))
             }
         };
-        let tables = |key: &str| -> Result<Vec<(f64, Vec<f64>)>, String> {
+        let tables = |key: &str| -> Result<Vec<(f64, Vec<f64>)>, super::PeerError> {
             alsc[key]
                 .as_array()
-                .ok_or(format!("no rpi.alsc {key}"))?
+                .ok_or_else(|| malformed(format!("no rpi.alsc {key}")))?
                 .iter()
                 .map(|e| Some((e["ct"].as_f64()?, numbers(&e["table"])?)))
                 .collect::<Option<Vec<_>>>()
                 .filter(|t| t.iter().all(|(_, v)| v.len() == luminance.len()))
-                .ok_or(format!("a malformed rpi.alsc {key}"))
+                .ok_or_else(|| malformed(format!("a malformed rpi.alsc {key}")))
         };
         Ok(CttTables {
             ccms,
@@ -358,7 +363,7 @@ pub fn tune_suite(
                 match CttTables::from_json(&t) {
                     Ok(t) => Some(t),
                     Err(e) => {
-                        figures.peer_errors.insert(RPI_CTT.into(), e);
+                        figures.peer_errors.insert(RPI_CTT.into(), e.to_string());
                         None
                     }
                 }
@@ -415,24 +420,25 @@ pub fn tune_suite(
             for c in 0..3 {
                 let t = &tuned.tuning;
                 let ours = |x: f64, y: f64| t.shading_gain(x + 0.5, y + 0.5, c, cct);
-                let (corner_pct, rms_pct) = residual(&truth.shading, &spec, c, &ours);
+                let (corner, rms) = simulate::shading_residual(&truth.shading, &spec, c, &ours);
                 figures.shading.push(ShadingFigure {
                     cct,
                     colour: c,
                     tool: CAMSIM.into(),
-                    corner_pct,
-                    rms_pct,
+                    corner_pct: 100.0 * corner,
+                    rms_pct: 100.0 * rms,
                 });
                 if let Some(tables) = &ctt_tables {
                     let theirs =
                         |x: f64, y: f64| tables.shading_gain(x, y, c, cct, spec.width, spec.height);
-                    let (corner_pct, rms_pct) = residual(&truth.shading, &spec, c, &theirs);
+                    let (corner, rms) =
+                        simulate::shading_residual(&truth.shading, &spec, c, &theirs);
                     figures.shading.push(ShadingFigure {
                         cct,
                         colour: c,
                         tool: RPI_CTT.into(),
-                        corner_pct,
-                        rms_pct,
+                        corner_pct: 100.0 * corner,
+                        rms_pct: 100.0 * rms,
                     });
                 }
             }
@@ -505,33 +511,6 @@ pub fn tune_suite(
         suite.cameras.push(figures);
     }
     Ok(suite)
-}
-
-/// The shading left after `gain` (pixel -> gain) on colour `c`: (largest at the corners, RMS
-/// over the frame), percent, relative to the centre.
-fn residual(
-    shading: &host_tracer::sensor::Shading,
-    spec: &CaptureSetSpec,
-    c: usize,
-    gain: &dyn Fn(f64, f64) -> f64,
-) -> (f64, f64) {
-    let corrected = |x: f64, y: f64| shading.factor(x, y, c) * gain(x, y);
-    let (w, h) = (spec.width, spec.height);
-    let centre = corrected(w as f64 / 2.0, h as f64 / 2.0);
-    let (mut sum2, mut n) = (0.0, 0.0);
-    for y in (0..h).step_by(4) {
-        for x in (0..w).step_by(4) {
-            let r = corrected(x as f64, y as f64) / centre - 1.0;
-            sum2 += r * r;
-            n += 1.0;
-        }
-    }
-    let (w1, h1) = ((w - 1) as f64, (h - 1) as f64);
-    let corner = [(0.0, 0.0), (w1, 0.0), (0.0, h1), (w1, h1)]
-        .iter()
-        .map(|&(x, y)| (corrected(x, y) / centre - 1.0).abs())
-        .fold(0.0f64, f64::max);
-    (100.0 * corner, 100.0 * (sum2 / n).sqrt())
 }
 
 /// Runs the peer script on the capture folder.

@@ -1320,10 +1320,7 @@ pub fn options_for(
             ),
         });
     }
-    let black: [u16; 4] = tuning
-        .black_level
-        .values
-        .map(|v| v.round().clamp(0.0, f64::from(tuning.white_level)) as u16);
+    let black = tuning.black_dn();
     let frame = isp_core::frame::RawFrame::new(
         &raw.samples,
         raw.width,
@@ -1412,6 +1409,13 @@ pub fn options_for(
 }
 
 impl Tuning {
+    /// The black level per CFA position in whole DN, as a frame's BlackLevel holds it.
+    pub fn black_dn(&self) -> [u16; 4] {
+        self.black_level
+            .values
+            .map(|v| v.round().clamp(0.0, f64::from(self.white_level)) as u16)
+    }
+
     /// Reads and checks a tuning file (the error names it).
     pub fn read(path: &Path) -> Result<Tuning, Error> {
         let text =
@@ -1449,10 +1453,7 @@ pub fn carry_in_dng(
     use raw_formats::dng::opcodes::{GainMap, Opcode};
     let applied = options_for(tuning, &dng.image, awb, iso)?;
     let raw = &mut dng.image;
-    raw.black_level = tuning
-        .black_level
-        .values
-        .map(|v| v.round().clamp(0.0, f64::from(tuning.white_level)) as u16);
+    raw.black_level = tuning.black_dn();
     raw.white_level = tuning.white_level;
     let (w, h) = (raw.width, raw.height);
     dng.colour.calibrations = (0..2)

@@ -179,6 +179,34 @@ pub fn balanced_patches(camera: &str, illuminant: &str) -> Result<Vec<[f64; 3]>,
         .collect()
 }
 
+/// The shading a correction leaves on colour `c` of a frame of `spec`'s size: the true
+/// fall-off `shading` times `gain` (pixel -> the correction's gain), relative to the centre.
+/// Returns (the largest at the four corners, the RMS over every fourth pixel), as fractions.
+pub fn shading_residual(
+    shading: &host_tracer::sensor::Shading,
+    spec: &CaptureSetSpec,
+    c: usize,
+    gain: &dyn Fn(f64, f64) -> f64,
+) -> (f64, f64) {
+    let corrected = |x: f64, y: f64| shading.factor(x, y, c) * gain(x, y);
+    let (w, h) = (spec.width, spec.height);
+    let centre = corrected(w as f64 / 2.0, h as f64 / 2.0);
+    let (mut sum2, mut n) = (0.0, 0.0);
+    for y in (0..h).step_by(4) {
+        for x in (0..w).step_by(4) {
+            let r = corrected(x as f64, y as f64) / centre - 1.0;
+            sum2 += r * r;
+            n += 1.0;
+        }
+    }
+    let (w1, h1) = ((w - 1) as f64, (h - 1) as f64);
+    let corner = [(0.0, 0.0), (w1, 0.0), (0.0, h1), (w1, h1)]
+        .iter()
+        .map(|&(x, y)| (corrected(x, y) / centre - 1.0).abs())
+        .fold(0.0f64, f64::max);
+    (corner, (sum2 / n).sqrt())
+}
+
 /// The chart frame's camera radiance under `light`, 3 per pixel, white = green 1.
 fn chart_radiance(
     spec: &CaptureSetSpec,

@@ -205,47 +205,24 @@ pub fn run(args: &BenchArgs) -> Result<String, Error> {
 }
 
 fn bench_tune(args: &BenchTuneArgs) -> Result<String, Error> {
-    let settings = suite_settings(&args.out, args.quick, Path::new("data"));
-    let command = settings.command.clone();
-    std::fs::create_dir_all(&args.out).map_err(|e| raw_formats::FormatError::io(&args.out, e))?;
-    let mut progress = Progress::new("bench tune");
-    let started = std::time::Instant::now();
-    let mut skipped = None;
-    let results = suite::tune::tune_suite(
-        &settings,
-        &settings.tune_python,
-        &mut skipped,
-        &mut |what| {
-            progress.step(&format!(
-                "[{:5.1} s] {what}",
-                started.elapsed().as_secs_f64()
-            ))
+    let (results, caption, skipped) = one_suite(
+        &args.out,
+        args.quick,
+        Path::new("data"),
+        "bench tune",
+        |settings, skipped, progress| {
+            suite::tune::tune_suite(settings, &settings.tune_python, skipped, progress)
         },
     )?;
-    progress.finish();
-    let caption = format!(
-        "{command} on {}, {}",
-        suite::Machine::this().describe(),
-        suite::today_utc()
-    );
-    let write = |name: &str, text: &str| {
-        let path = args.out.join(name);
-        std::fs::write(&path, text).map_err(|e| Error::from(raw_formats::FormatError::io(path, e)))
-    };
-    let json = serde_json::to_string_pretty(&results).map_err(|e| Error::Message(e.to_string()))?;
-    write("tune.json", &(json + "\n"))?;
     let table = results.table();
-    write(
-        "tune.md",
-        &format!("# camsim bench tune\n\n`{caption}`\n\n{table}"),
-    )?;
+    write_suite(&args.out, "tune", &results, &caption, &table)?;
     suite::tune::charts(&results, &caption, &args.out)?;
     let mut out = table;
     let behind = results.behind_the_peers();
     if skipped.is_none() {
         out += &if behind.is_empty() {
             "\ncamsim is at least as close to the truth as rpi-ctt (colour matrix, every light) \
-             and emva1288 (S and O, every ISO and colour)\n"
+             and emva1288 (S and O, averaged over every ISO and colour)\n"
                 .to_string()
         } else {
             format!(
@@ -258,6 +235,58 @@ fn bench_tune(args: &BenchTuneArgs) -> Result<String, Error> {
     }
     out += &format!("\nwritten: {}\n", args.out.display());
     Ok(out)
+}
+
+/// One suite alone into `out` (`camsim bench NAME`): its settings, its progress on stderr
+/// under `label`;
+/// returns its results, the caption its files carry and why its peers were skipped, if they
+/// were.
+fn one_suite<R>(
+    out: &Path,
+    quick: bool,
+    data: &Path,
+    label: &'static str,
+    run: impl FnOnce(&SuiteSettings, &mut Option<String>, suite::ProgressFn<'_>) -> Result<R, Error>,
+) -> Result<(R, String, Option<String>), Error> {
+    let settings = suite_settings(out, quick, data);
+    std::fs::create_dir_all(out).map_err(|e| raw_formats::FormatError::io(out, e))?;
+    let mut progress = Progress::new(label);
+    let started = std::time::Instant::now();
+    let mut skipped = None;
+    let results = run(&settings, &mut skipped, &mut |what| {
+        progress.step(&format!(
+            "[{:5.1} s] {what}",
+            started.elapsed().as_secs_f64()
+        ))
+    })?;
+    progress.finish();
+    let caption = format!(
+        "{} on {}, {}",
+        settings.command,
+        suite::Machine::this().describe(),
+        suite::today_utc()
+    );
+    Ok((results, caption, skipped))
+}
+
+/// Writes a suite's `NAME.json` (its results) and `NAME.md` (title, caption, table) into `out`.
+fn write_suite<R: serde::Serialize>(
+    out: &Path,
+    name: &str,
+    results: &R,
+    caption: &str,
+    table: &str,
+) -> Result<(), Error> {
+    let write = |file: String, text: &str| {
+        let path = out.join(file);
+        std::fs::write(&path, text).map_err(|e| Error::from(raw_formats::FormatError::io(path, e)))
+    };
+    let json = serde_json::to_string_pretty(results).map_err(|e| Error::Message(e.to_string()))?;
+    write(format!("{name}.json"), &(json + "\n"))?;
+    write(
+        format!("{name}.md"),
+        &format!("# camsim bench {name}\n\n`{caption}`\n\n{table}"),
+    )
 }
 
 /// The suites' settings for a run into `out` from the environment: the oracle's Python,
@@ -281,35 +310,15 @@ fn suite_settings(out: &Path, quick: bool, data: &Path) -> SuiteSettings {
 }
 
 fn bench_denoise(args: &BenchDenoiseArgs) -> Result<String, Error> {
-    let settings = suite_settings(&args.out, args.quick, &args.data);
-    let command = settings.command.clone();
-    std::fs::create_dir_all(&args.out).map_err(|e| raw_formats::FormatError::io(&args.out, e))?;
-    let mut progress = Progress::new("bench denoise");
-    let started = std::time::Instant::now();
-    let mut skipped = None;
-    let results = suite::denoise::denoise_suite(&settings, &mut skipped, &mut |what| {
-        progress.step(&format!(
-            "[{:5.1} s] {what}",
-            started.elapsed().as_secs_f64()
-        ))
-    })?;
-    progress.finish();
-    let caption = format!(
-        "{command} on {}, {}",
-        suite::Machine::this().describe(),
-        suite::today_utc()
-    );
-    let write = |name: &str, text: &str| {
-        let path = args.out.join(name);
-        std::fs::write(&path, text).map_err(|e| Error::from(raw_formats::FormatError::io(path, e)))
-    };
-    let json = serde_json::to_string_pretty(&results).map_err(|e| Error::Message(e.to_string()))?;
-    write("denoise.json", &(json + "\n"))?;
-    let table = suite::denoise_table(&results);
-    write(
-        "denoise.md",
-        &format!("# camsim bench denoise\n\n`{caption}`\n\n{table}"),
+    let (results, caption, skipped) = one_suite(
+        &args.out,
+        args.quick,
+        &args.data,
+        "bench denoise",
+        |settings, skipped, progress| suite::denoise::denoise_suite(settings, skipped, progress),
     )?;
+    let table = suite::denoise_table(&results);
+    write_suite(&args.out, "denoise", &results, &caption, &table)?;
     suite::denoise_chart(&results, &caption, &args.out.join("denoise.svg"))?;
     let mut out = table;
     if let Some(why) = skipped {
