@@ -509,7 +509,7 @@ fn tuning_recovers_the_simulated_cameras() {
         let from_patches =
             tune::tune(&TuneSettings::new(&dir), &mut |_| {}).expect("the set tunes without pairs");
         let entry = &from_patches.tuning.noise[0];
-        assert_eq!(entry.source, "chart patches");
+        assert_eq!(entry.source, "chart patches and dark frames");
         let p = truth.chart_noise;
         for c in 0..3 {
             let (s, o) = (f64::from(p.scale()[c]), f64::from(p.offset()[c]));
@@ -519,6 +519,10 @@ fn tuning_recovers_the_simulated_cameras() {
                 100.0 * relative(entry.offset[c], o)
             );
             assert!(relative(entry.scale[c], s) <= 0.2, "{name}: S from patches");
+            assert!(
+                relative(entry.offset[c], o) <= 0.2,
+                "{name}: O from patches"
+            );
         }
         let _ = std::fs::remove_dir_all(&dir);
         let _ = std::fs::remove_file(&held);

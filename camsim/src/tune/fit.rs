@@ -223,6 +223,107 @@ pub fn patch_noise_fit(points: &[TransferPoint]) -> Option<(f64, f64)> {
     solve::<3>(gram, cross).map(|s| (s[0], s[1].max(0.0)))
 }
 
+/// Fits `variance = zero + S mean + P mean^2` to chart patches with the zero-signal variance
+/// `zero` known (the dark frames' spatial variance, [`DarkVariance::spatial`]): returns `S`.
+/// Pinning the intercept leaves the fit nothing to extrapolate below the darkest patch.
+pub fn patch_scale_fit(points: &[TransferPoint], zero: f64) -> Option<f64> {
+    if points.len() < 3 || !zero.is_finite() {
+        return None;
+    }
+    let mut gram = [[0.0f64; 2]; 2];
+    let mut cross = [0.0f64; 2];
+    for p in points {
+        let w = 1.0 / (p.variance * p.variance).max(1e-12);
+        let t = [p.mean, p.mean * p.mean];
+        for i in 0..2 {
+            for j in 0..2 {
+                gram[i][j] += w * t[i] * t[j];
+            }
+            cross[i] += w * t[i] * (p.variance - zero);
+        }
+    }
+    solve::<2>(gram, cross).map(|s| s[0])
+}
+
+/// The noise of dark frames per colour (R, G, B), DN^2, defects left out.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DarkVariance {
+    /// Temporal: half the variance of the difference of two frames (frames 1-2, 3-4, ...
+    /// averaged), which the fixed pattern (DSNU) cancels out of; `None` with one frame.
+    pub temporal: Option<[f64; 3]>,
+    /// Spatial: one frame's variance about its mean at each CFA position, averaged over the
+    /// frames; the temporal noise plus the DSNU, what a chart patch holds at zero signal.
+    pub spatial: [f64; 3],
+}
+
+/// The noise of `darks` (same size, `width` wide) per colour of `pattern`, pixels where
+/// `skip(x, y)` left out; samples beyond 8 robust deviations (an unmarked hot pixel) too.
+/// `None` without frames or with a colour left empty.
+pub fn dark_variance(
+    darks: &[&[u16]],
+    width: usize,
+    pattern: CfaPattern,
+    skip: &dyn Fn(usize, usize) -> bool,
+) -> Option<DarkVariance> {
+    if darks.is_empty() || width == 0 {
+        return None;
+    }
+    // Variance per CFA position of `value` (a frame or a difference), pooled per colour.
+    let per_colour = |value: &dyn Fn(usize) -> f64, len: usize| -> Option<[f64; 3]> {
+        let mut by_position: [Vec<f64>; 4] = Default::default();
+        for i in 0..len {
+            let (x, y) = (i % width, i / width);
+            if !skip(x, y) {
+                by_position[(y % 2) * 2 + x % 2].push(value(i));
+            }
+        }
+        let (mut sum, mut count) = ([0.0f64; 3], [0.0f64; 3]);
+        for (p, v) in by_position.iter_mut().enumerate() {
+            if v.len() < 16 {
+                continue;
+            }
+            v.sort_by(f64::total_cmp);
+            let median = v[v.len() / 2];
+            let mut dev: Vec<f64> = v.iter().map(|s| (s - median).abs()).collect();
+            dev.sort_by(f64::total_cmp);
+            let limit = 8.0 * (1.4826 * dev[dev.len() / 2]).max(0.5);
+            let kept: Vec<f64> = v
+                .iter()
+                .copied()
+                .filter(|s| (s - median).abs() <= limit)
+                .collect();
+            let n = kept.len() as f64;
+            let mean = kept.iter().sum::<f64>() / n;
+            let var = kept.iter().map(|s| (s - mean) * (s - mean)).sum::<f64>() / (n - 1.0);
+            let c = pattern.colour_at(p % 2, p / 2).index();
+            sum[c] += var * n;
+            count[c] += n;
+        }
+        (count.iter().all(|&n| n > 0.0)).then(|| std::array::from_fn(|c| sum[c] / count[c]))
+    };
+    let len = darks[0].len();
+    let mut spatial = [0.0; 3];
+    for d in darks {
+        let v = per_colour(&|i| f64::from(d[i]), len.min(d.len()))?;
+        (0..3).for_each(|c| spatial[c] += v[c] / darks.len() as f64);
+    }
+    let pairs: Vec<[f64; 3]> = darks
+        .chunks_exact(2)
+        .map(|ab| {
+            let (a, b) = (ab[0], ab[1]);
+            per_colour(
+                &|i| f64::from(a[i]) - f64::from(b[i]),
+                len.min(a.len()).min(b.len()),
+            )
+            .map(|v| v.map(|x| x / 2.0))
+        })
+        .collect::<Option<_>>()?;
+    let temporal = (!pairs.is_empty()).then(|| {
+        std::array::from_fn(|c| pairs.iter().map(|v| v[c]).sum::<f64>() / pairs.len() as f64)
+    });
+    Some(DarkVariance { temporal, spatial })
+}
+
 /// Degree of the shading polynomial.
 const SHADING_DEGREE: usize = 6;
 /// Its term count: (d + 1)(d + 2) / 2.

@@ -28,7 +28,10 @@
 //! 4. the noise profile `var = S x + O` per ISO and colour from photon-transfer pairs
 //!    (EMVA 1288: half the variance of each pair's difference against its mean, the offset
 //!    from the dark pair), else from the chart patches' spatial variance (with a quadratic term
-//!    that takes the fixed-pattern PRNU out);
+//!    that takes the fixed-pattern PRNU out) and the dark frames of the charts' ISO: O from
+//!    the darks' temporal variance (half that of a pair's difference; one dark's spatial
+//!    variance, DSNU included, with a warning), the patches' intercept pinned to the darks'
+//!    spatial variance; without darks the intercept is O, with a warning;
 //! 5. per chart shot: the chart found (or `--chart`), its patches sampled after black, shading
 //!    and defects, the light's colour from the five brighter greys;
 //! 6. the white-balance locus through the lights' colours and its transverse bounds;
@@ -139,6 +142,8 @@ pub struct Capture {
     pub raw: RawImage,
     /// The ISO its DNG says it was shot at (ISOSpeedRatings), if it says.
     pub iso: Option<u16>,
+    /// The exposure its DNG says (ExposureTime), seconds, if it says.
+    pub exposure_s: Option<f64>,
 }
 
 /// Settings of a tuning run.
@@ -217,7 +222,8 @@ pub struct NoiseEntry {
     pub scale: [f64; 3],
     /// O per colour.
     pub offset: [f64; 3],
-    /// `photon transfer` or `chart patches`.
+    /// `photon transfer`, `chart patches and dark frames` or (no darks at that ISO) `chart
+    /// patches`.
     pub source: String,
 }
 
@@ -565,6 +571,7 @@ pub fn read_captures(
             kind,
             raw,
             iso: dng.processing.iso,
+            exposure_s: dng.processing.exposure_time_s,
         });
     }
     let charts: Vec<f64> = captures
@@ -992,12 +999,41 @@ pub fn tune(settings: &TuneSettings, progress: &mut dyn FnMut(&str)) -> Result<T
     }
 
     // Noise from the chart patches when no photon transfer was given: one profile per ISO the
-    // chart shots' DNGs give (ISOSpeedRatings), ISO 0 for shots that do not say.
+    // chart shots' DNGs give (ISOSpeedRatings), ISO 0 for shots that do not say. The dark
+    // frames of that ISO pin the zero-signal end: their temporal variance is O, their spatial
+    // variance the patches' intercept, so S is fitted with nothing to extrapolate.
     if tuning.noise.is_empty() {
         let mut isos: Vec<Option<u16>> = shots.iter().map(|s| s.0.iso).collect();
         isos.sort_unstable();
         isos.dedup();
         for iso in isos {
+            let iso_name = iso.map_or("without an ISO tag".to_string(), |i| format!("ISO {i}"));
+            let same_iso: Vec<&Capture> = darks.iter().copied().filter(|d| d.iso == iso).collect();
+            let frames: Vec<&[u16]> = same_iso.iter().map(|c| c.raw.samples.as_slice()).collect();
+            let dark = fit::dark_variance(&frames, w, pattern, &is_defect);
+            let chart_exposures: Vec<f64> = shots
+                .iter()
+                .filter(|s| s.0.iso == iso)
+                .filter_map(|s| s.0.exposure_s)
+                .collect();
+            let dark_exposures: Vec<f64> = same_iso.iter().filter_map(|c| c.exposure_s).collect();
+            if let (Some(d), Some(c)) = (
+                dark_exposures.iter().copied().reduce(f64::max),
+                chart_exposures.iter().copied().reduce(f64::max),
+            ) {
+                let (lo, hi) = (
+                    dark_exposures.iter().copied().fold(d, f64::min),
+                    chart_exposures.iter().copied().fold(c, f64::min),
+                );
+                if d.max(c) > 2.0 * lo.min(hi) {
+                    warnings.push(format!("{iso_name}: the darks ({lo:.4}-{d:.4} s) and the chart shots ({hi:.4}-{c:.4} s) differ in exposure by more than 2x; the noise offset from the darks misses or adds the dark charge of the difference"));
+                }
+            }
+            match &dark {
+                None => warnings.push(format!("{iso_name}: no dark frames; the noise offset O is the chart patches' fit extrapolated to zero signal (tens of percent off; shoot two darks at the charts' exposure)")),
+                Some(d) if d.temporal.is_none() => warnings.push(format!("{iso_name}: one dark frame; the noise offset O is its spatial variance, which holds the fixed-pattern DSNU too (two darks give the temporal offset)")),
+                Some(_) => {}
+            }
             let mut scale = [0.0; 3];
             let mut offset = [0.0; 3];
             for c in 0..3 {
@@ -1011,7 +1047,12 @@ pub fn tune(settings: &TuneSettings, progress: &mut dyn FnMut(&str)) -> Result<T
                     })
                     .filter(|p| p.mean > 0.0)
                     .collect();
-                let (s, o) = fit::patch_noise_fit(&pts).ok_or_else(|| {
+                let fitted = match &dark {
+                    Some(d) => fit::patch_scale_fit(&pts, d.spatial[c])
+                        .map(|s| (s, d.temporal.unwrap_or(d.spatial)[c])),
+                    None => fit::patch_noise_fit(&pts),
+                };
+                let (s, o) = fitted.ok_or_else(|| {
                     refuse(
                         &settings.captures,
                         "the chart patches do not fit a noise profile",
@@ -1024,7 +1065,11 @@ pub fn tune(settings: &TuneSettings, progress: &mut dyn FnMut(&str)) -> Result<T
                 iso: iso.map_or(0.0, f64::from),
                 scale,
                 offset,
-                source: "chart patches".into(),
+                source: if dark.is_some() {
+                    "chart patches and dark frames".into()
+                } else {
+                    "chart patches".into()
+                },
             });
             if iso.is_none() {
                 warnings.push("no photon-transfer pairs and chart shots without an ISO tag: their noise profile comes from the chart patches, written as ISO 0".into());

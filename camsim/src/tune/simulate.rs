@@ -6,7 +6,10 @@
 //! composed here: a ColorChecker on a grey wall (each pixel the camera response to reflectance
 //! times illuminant, averaged over 4 x 4 sub-samples so patch edges are antialiased), flat
 //! fields (a perfect diffuser under the illuminant), dark frames, and photon-transfer pairs of
-//! flat fields at rising levels. Flat patches under a uniform light are exactly what the path
+//! flat fields at rising levels. Every light gives [`STUDIO_LUX`] on the chart (the `1000l` of
+//! the chart shots' names), so exposures are a camera's (about 0.1 s at ISO 100 and
+//! f/4) and the dark charge what it would be; the darks are shot at the charts' exposure, as a
+//! tuning set's darks should be. Flat patches under a uniform light are exactly what the path
 //! tracer would compute for them, so no tracing is needed. Files are named as `camsim tune`
 //! and Raspberry Pi's tuning tool read them.
 
@@ -73,7 +76,7 @@ pub struct CaptureSetSpec {
     pub flat_illuminants: Vec<String>,
     /// Flat frames per flat illuminant.
     pub flats_per_illuminant: usize,
-    /// Dark frames.
+    /// Dark frames, shot at the charts' mean exposure and the sensor's ISO.
     pub darks: usize,
     /// ISOs of the photon-transfer pairs (none: no pairs).
     pub ptc_isos: Vec<f64>,
@@ -130,7 +133,9 @@ pub struct CaptureTruth {
     pub defects: Vec<(usize, usize, DefectKind)>,
     /// The noise profile at each photon-transfer ISO (the pairs' exposure).
     pub noise: Vec<(f64, NoiseProfile)>,
-    /// The noise profile of the chart shots (the sensor's ISO and their exposure).
+    /// The noise profile of the chart shots and darks: the sensor's ISO at the darks' exposure
+    /// (the charts' mean; the charts' own differ from it by the dark charge of the difference,
+    /// a few thousandths of an electron squared).
     pub chart_noise: NoiseProfile,
     /// The shading every frame went through.
     pub shading: Shading,
@@ -150,6 +155,15 @@ pub fn illuminant_cct(name: &str) -> Result<f64, Error> {
     let xyz = spectra::bands_xyz(&bands);
     let xy = isp_core::colour::xyz_to_xy(xyz)?;
     Ok(isp_core::colour::xy_to_cct_mccamy(xy)?)
+}
+
+/// The illuminance of every light of a capture set on the chart or diffuser, lux.
+pub const STUDIO_LUX: f64 = 1000.0;
+
+/// Camera radiance of a perfect diffuser under [`STUDIO_LUX`], in the sensor model's luminance
+/// units: `L = E / pi` (cd/m^2) for a Lambertian white.
+fn studio_white() -> f64 {
+    STUDIO_LUX / std::f64::consts::PI
 }
 
 /// Camera RGB of reflectance `reflectance` (bands) under `light` (bands), with the light's own
@@ -207,23 +221,25 @@ pub fn shading_residual(
     (corner, (sum2 / n).sqrt())
 }
 
-/// The chart frame's camera radiance under `light`, 3 per pixel, white = green 1.
+/// The chart frame's camera radiance under `light` at [`STUDIO_LUX`], 3 per pixel.
 fn chart_radiance(
     spec: &CaptureSetSpec,
     response: &Response,
     light: &[f32; BANDS],
 ) -> Result<Vec<f32>, Error> {
     let table = Table::parse(COLORCHECKER)?;
+    let lit =
+        |reflectance: &[f32; BANDS]| seen(response, reflectance, light).map(|v| v * studio_white());
     let mut patch_rgb = Vec::with_capacity(chart::PATCHES);
     for i in 0..chart::PATCHES {
         let column = table.column_at(i).ok_or(Error::Message(format!(
             "ColorChecker table: column {i} missing"
         )))?;
-        patch_rgb.push(seen(response, &spectra::bands_from_grid(column), light));
+        patch_rgb.push(lit(&spectra::bands_from_grid(column)));
     }
     // The chart's frame: a flat 3.5 % black; the wall: a flat 30 % grey.
-    let frame = seen(response, &[0.035; BANDS], light);
-    let wall = seen(response, &[0.30; BANDS], light);
+    let frame = lit(&[0.035; BANDS]);
+    let wall = lit(&[0.30; BANDS]);
     let (w, h) = (spec.width, spec.height);
     let map = spec.chart.map(w, h);
     // Inverse of the affine map: pixel -> chart units.
@@ -389,7 +405,7 @@ pub fn write_capture_set(
         Ok(capture)
     };
     let mut illuminants = Vec::new();
-    let mut chart_noise = None;
+    let mut chart_exposures = Vec::new();
     let mut shading = None;
     let mut defects = Vec::new();
     for name in &spec.chart_illuminants {
@@ -405,10 +421,10 @@ pub fn write_capture_set(
         let capture = shoot(
             &radiance,
             sensor,
-            format!("chart_{name}_{cct}k_1000l.dng"),
+            format!("chart_{name}_{cct}k_{}l.dng", STUDIO_LUX.round()),
             progress,
         )?;
-        chart_noise = Some(capture.noise_profile);
+        chart_exposures.push(exposure);
         shading = Some(capture.shading);
         defects = capture.defects.clone();
         illuminants.push((name.clone(), cct, seen(&response, &[1.0; BANDS], &light)));
@@ -416,7 +432,7 @@ pub fn write_capture_set(
     for name in &spec.flat_illuminants {
         let light = spectra::illuminant_bands(name)?;
         let cct = illuminant_cct(name)?.round();
-        let rgb = seen(&response, &[1.0; BANDS], &light);
+        let rgb = seen(&response, &[1.0; BANDS], &light).map(|v| v * studio_white());
         let radiance: Vec<f32> = (0..w * h).flat_map(|_| rgb.map(|v| v as f32)).collect();
         let peak = rgb.iter().fold(0.0f64, |a, &b| a.max(b));
         let exposure = exposure_for(&spec.sensor, &spec.lens, peak, 0.7);
@@ -428,7 +444,9 @@ pub fn write_capture_set(
             shoot(&radiance, sensor, format!("alsc_{cct}k_{n}.dng"), progress)?;
         }
     }
-    let dark_exposure = 0.01;
+    // The darks at the charts' (mean) exposure and ISO: the dark charge they hold is the
+    // charts', so their noise is the charts' noise at zero signal.
+    let dark_exposure = chart_exposures.iter().sum::<f64>() / chart_exposures.len().max(1) as f64;
     for n in 0..spec.darks {
         let sensor = SensorConfig {
             exposure_s: Some(dark_exposure),
@@ -445,7 +463,7 @@ pub fn write_capture_set(
     let mut noise = Vec::new();
     if !spec.ptc_isos.is_empty() {
         let light = spectra::illuminant_bands("D50")?;
-        let rgb = seen(&response, &[1.0; BANDS], &light);
+        let rgb = seen(&response, &[1.0; BANDS], &light).map(|v| v * studio_white());
         let peak = rgb.iter().fold(0.0f64, |a, &b| a.max(b));
         for &iso in &spec.ptc_isos {
             let base = SensorConfig {
@@ -483,11 +501,16 @@ pub fn write_capture_set(
             }
         }
     }
-    let (Some(chart_noise), Some(shading)) = (chart_noise, shading) else {
+    let Some(shading) = shading else {
         return Err(Error::Message(
             "a capture set needs at least one chart illuminant".into(),
         ));
     };
+    let chart_noise = SensorConfig {
+        exposure_s: Some(dark_exposure),
+        ..spec.sensor.clone()
+    }
+    .noise_profile(dark_exposure)?;
     Ok(CaptureTruth {
         black: spec.sensor.black(),
         defects,
