@@ -31,6 +31,20 @@ pub enum OpticsError {
     DidNotConverge,
     /// The result does not fit the number type (float overflow or fixed-point range).
     Overflow,
+    /// A lens prescription's surface cannot be used as given.
+    BadSurface {
+        /// The surface's index, 0 at the object side.
+        surface: usize,
+        /// What is wrong with it, in words.
+        problem: &'static str,
+    },
+    /// A lens prescription as a whole cannot be used (no surfaces, no stop, two stops).
+    BadPrescription {
+        /// What is wrong, in words.
+        problem: &'static str,
+    },
+    /// A pupil is at infinity (the lens is telecentric on that side): it has no position.
+    PupilAtInfinity,
 }
 
 impl fmt::Display for OpticsError {
@@ -56,6 +70,11 @@ impl fmt::Display for OpticsError {
             Self::EmptyMask => f.write_str("the aperture mask has no open pixel"),
             Self::DidNotConverge => f.write_str("the iteration did not converge"),
             Self::Overflow => f.write_str("the result is out of the number type's range"),
+            Self::BadSurface { surface, problem } => write!(f, "surface {surface}: {problem}"),
+            Self::BadPrescription { problem } => write!(f, "lens prescription: {problem}"),
+            Self::PupilAtInfinity => {
+                f.write_str("the pupil is at infinity (the lens is telecentric on that side)")
+            }
         }
     }
 }

@@ -18,6 +18,7 @@
 //! | [`chromatic`] | the three-aperture chromatic aberration model with balance-heuristic weights |
 //! | [`distortion`] | Brown-Conrady radial/tangential distortion as OpenCV defines it, forward and inverse |
 //! | [`fixed_point`] | focusing and depth of field in fixed point (vergence form) for firmware |
+//! | [`prescription`] | real lenses: surfaces (flat, spherical, even asphere), glasses (model, Sellmeier, a catalogue), paraxial data, real rays with dispersion, vignetting and total internal reflection |
 //!
 //! Scalar equations are generic over [`Real`] (`f32` and `f64`); geometry that a renderer uses per
 //! sample ([`aperture`], [`camera`], [`chromatic`]) is `f32` with `glam` vectors, the tracer's types.
@@ -42,6 +43,7 @@ pub mod exposure;
 pub mod fixed_point;
 pub mod lens;
 pub mod math;
+pub mod prescription;
 mod real;
 pub mod refraction;
 

@@ -77,6 +77,38 @@ fn checks() -> bool {
         && srgb::encode(1.0) > 0.999
         && pipeline_runs()
         && directional_runs()
+        && prescription_runs()
+}
+
+/// A biconvex N-BK7 singlet in a stack array: its paraxial focal length, and a real ray that
+/// lands near the paraxial focus (a little short: spherical aberration).
+fn prescription_runs() -> bool {
+    use optics_core::prescription::glass::{catalogue_glass, Medium};
+    use optics_core::prescription::trace::{Ray, Traced};
+    use optics_core::prescription::{Prescription, Shape, Surface};
+    let Ok(bk7) = catalogue_glass("N-BK7") else {
+        return false;
+    };
+    let surfaces = [
+        Surface::new(Shape::sphere_radius(50.0_f64), 10.0, 5.0, bk7.medium()).stop(),
+        Surface::new(Shape::sphere_radius(-50.0), 10.0, 47.0, Medium::Air),
+    ];
+    let Ok(lens) = Prescription::new(&surfaces) else {
+        return false;
+    };
+    let Ok(p) = lens.paraxial(587.5618) else {
+        return false;
+    };
+    let ray = Ray {
+        origin: [5.0, 0.0, -1.0],
+        direction: [0.0, 0.0, 1.0],
+        wavelength_nm: 587.5618,
+    };
+    let Ok(Traced::Image { point, direction }) = lens.trace(&ray) else {
+        return false;
+    };
+    let crossing = point[2] - point[0] * direction[2] / direction[0] - 5.0;
+    p.efl > 48.0 && p.efl < 50.0 && crossing < p.bfl && crossing > p.bfl - 2.0
 }
 
 /// The directional demosaic, float and integer, on a flat 8x8 mosaic in stack buffers: the
