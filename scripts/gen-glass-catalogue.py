@@ -23,7 +23,8 @@ GLASSES = [
     "N-SK5", "N-SK14", "N-SK16", "N-SSK8", "N-LAK8", "N-LAK9", "N-LAK14", "N-LAK22",
     "N-LAF2", "N-LASF9", "N-LASF44", "N-PK51", "N-FK51A", "F2", "F5", "N-F2", "SF1",
     "SF2", "SF4", "SF5", "N-SF1", "N-SF2", "N-SF4", "N-SF5", "N-SF6", "N-SF8", "N-SF10",
-    "N-SF11", "N-SF57",
+    "N-SF11", "N-SF57", "N-SSK2", "N-SK10", "N-SK15", "K10", "N-BASF2", "N-ZK7", "N-LAF33",
+    "N-LAK12", "N-SF15",
 ]
 
 

@@ -12,6 +12,8 @@
 //! - [`demosaic`]: isp-core's demosaicing methods on files and their accuracy against speed
 //!   (`camsim demosaic`, `camsim bench demosaic`).
 //! - [`dof`]: the depth-of-field calculator (`camsim dof`).
+//! - [`lens`]: lens files (TOML, pbrt's `.dat`) and the paraxial and traced report of a real
+//!   lens (`camsim lens`).
 //! - [`noise_estimate`]: a raw frame's noise profile estimated from the frame (Foi et al.
 //!   2008), for raws whose file states none.
 //! - [`suite`]: the benchmark suites, charted (`camsim bench` without a subcommand).
@@ -29,6 +31,7 @@ pub mod develop;
 pub mod dof;
 mod error;
 pub mod isp_options;
+pub mod lens;
 pub mod noise_estimate;
 pub mod suite;
 pub mod tune;

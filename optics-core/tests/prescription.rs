@@ -287,7 +287,7 @@ fn prescription() -> impl Strategy<Value = Vec<Surface<f64>>> {
     (2usize..7)
         .prop_flat_map(|n| {
             (
-                proptest::collection::vec((-0.05f64..0.05, 0.5f64..10.0, 1.45f64..1.9), n),
+                proptest::collection::vec((-0.05f64..0.05, 0.5f64..40.0, 1.45f64..1.9), n),
                 0..n,
             )
         })
@@ -398,4 +398,38 @@ fn the_f32_path_agrees_with_f64() {
         panic!()
     };
     assert!((f64::from(point[0]) - p[0]).abs() < 1e-4);
+}
+
+/// A ray that starts further than the radius in front of a surface concave towards it meets
+/// the surface near its vertex (the root continuous with the plane's), not the sphere's far
+/// side behind the ray: an air gap longer than the radius, as in a telephoto's rear group.
+#[test]
+fn a_long_gap_before_a_concave_surface_finds_the_near_root() {
+    let bk7 = glass("N-BK7");
+    for r in [-14.5, 14.5, -3.0] {
+        let s = [
+            Surface::new(Shape::Flat, 5.0, 26.0, Medium::Air).stop(),
+            Surface::new(Shape::sphere_radius(r), 2.5, 2.0, bk7),
+            Surface::new(Shape::Flat, 5.0, 10.0, Medium::Air),
+        ];
+        let lens = Prescription::new(&s).unwrap();
+        let ray = Ray {
+            origin: [0.0, 0.0, -1.0],
+            direction: [0.0, 0.0, 1.0],
+            wavelength_nm: 550.0,
+        };
+        let Traced::Image { point, .. } = lens.trace(&ray).unwrap() else {
+            panic!("R {r}: the axial ray was lost")
+        };
+        assert_eq!(point, [0.0, 0.0, 38.0]);
+        // Off axis: it meets the sphere where the sag says.
+        let ray = Ray {
+            origin: [2.0, 0.0, -1.0],
+            ..ray
+        };
+        assert!(
+            matches!(lens.trace(&ray).unwrap(), Traced::Image { .. }),
+            "R {r}"
+        );
+    }
 }

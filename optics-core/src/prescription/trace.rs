@@ -63,8 +63,10 @@ fn conic_hit<T: Real>(shape: &Shape<T>, p: [T; 3], d: [T; 3]) -> Option<T> {
         } => (curvature, conic),
     };
     // c (x^2 + y^2 + (1 + k) z^2) - 2 z = 0 along p + t d: a t^2 + 2 h t + q = 0. The root
-    // taken is the one that tends to the plane's -z/dz as c -> 0 (written to keep its
-    // precision there).
+    // taken is the one that tends to the plane's -z/dz as c -> 0, `(-h + sqrt(disc)) / a`,
+    // written in whichever of its two forms has no cancellation: `q / (-h + sqrt(disc))`
+    // when h <= 0, `-(h + sqrt(disc)) / a` when h > 0 (a ray starting further than the
+    // radius in front of a surface concave towards it).
     let kk = T::one() + k;
     let a = c * (d[0] * d[0] + d[1] * d[1] + kk * d[2] * d[2]);
     let h = c * (p[0] * d[0] + p[1] * d[1] + kk * p[2] * d[2]) - d[2];
@@ -73,11 +75,19 @@ fn conic_hit<T: Real>(shape: &Shape<T>, p: [T; 3], d: [T; 3]) -> Option<T> {
     if disc < T::zero() {
         return None;
     }
-    let denominator = -h + disc.sqrt().copysign(-h);
-    if denominator == T::zero() {
-        return None;
-    }
-    let t = q / denominator;
+    let root = disc.sqrt();
+    let t = if h <= T::zero() {
+        let denominator = root - h;
+        if denominator == T::zero() {
+            return None;
+        }
+        q / denominator
+    } else {
+        if a == T::zero() {
+            return None;
+        }
+        -(h + root) / a
+    };
     t.is_finite().then_some(t)
 }
 

@@ -11,7 +11,7 @@ mod cli_args;
 mod commands;
 mod progress;
 
-use commands::{bench, calibrate, dataset, demo, demosaic, dof, isp, render, tune};
+use commands::{bench, calibrate, dataset, demo, demosaic, dof, isp, lens, render, tune};
 
 #[derive(Parser)]
 #[command(
@@ -28,6 +28,9 @@ struct Cli {
 enum Command {
     /// Depth of field, hyperfocal distance, focus position and magnification of a thin lens.
     Dof(dof::DofArgs),
+    /// A real lens from its prescription (TOML or pbrt's .dat): paraxial data (focal lengths,
+    /// principal planes, pupils, f-number) at a wavelength, or rays traced through it.
+    Lens(lens::LensArgs),
     /// Demosaic a single-channel 8- or 16-bit Bayer mosaic (PNG or PGM) into RGB of the same depth.
     Demosaic(demosaic::DemosaicArgs),
     /// Run the ISP (defects, black level, lens shading, gain, white balance, demosaic, lens
@@ -71,6 +74,7 @@ fn main() -> ExitCode {
     };
     let result = match &cli.command {
         Command::Dof(args) => dof::run(args),
+        Command::Lens(args) => lens::run(args),
         Command::Demosaic(args) => demosaic::run(args),
         Command::Isp(args) => isp::run(args),
         Command::Render(args) => render::run(args),

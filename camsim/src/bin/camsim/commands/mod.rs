@@ -8,5 +8,6 @@ pub mod demo;
 pub mod demosaic;
 pub mod dof;
 pub mod isp;
+pub mod lens;
 pub mod render;
 pub mod tune;

@@ -1,0 +1,603 @@
+//! Lens files: a prescription for optics-core's [`optics_core::prescription`], in TOML (the
+//! format below) or pbrt's four-column `.dat`; and `camsim lens`'s report of a lens's paraxial
+//! data and of rays traced through it.
+//!
+//! The TOML format, version 1 (lengths in millimetres, surfaces from the object side):
+//!
+//! ```toml
+//! version = 1
+//! name = "Biconvex singlet"
+//! source = "where the prescription comes from (a patent, a book, a page)"
+//!
+//! [[surface]]
+//! radius = 50.0            # mm; 0 or "inf" (absent) is flat; or `curvature` (1/mm)
+//! thickness = 5.0          # to the next vertex (after the last surface: to the image plane)
+//! semi_diameter = 10.0     # clear aperture radius
+//! glass = "N-BK7"          # a catalogue glass; or nd + vd (a model glass); or index (no
+//!                          # dispersion); or sellmeier = { b = [..], c = [..] } (c in um^2);
+//!                          # none: air
+//! stop = true              # exactly one surface is the aperture stop
+//!
+//! [[surface]]
+//! radius = -50.0
+//! thickness = 47.0
+//! semi_diameter = 10.0
+//! conic = 0.0              # with `aspheric = [A4, A6, ..., A16]`: an even asphere
+//! ```
+//!
+//! Unknown keys are refused, and every error names the surface (counted from 1) and the key.
+
+use std::path::Path;
+
+use optics_core::prescription::glass::{catalogue_glass, Medium, LAMBDA_D_NM};
+use optics_core::prescription::paraxial::Paraxial;
+use optics_core::prescription::trace::{Loss, Ray, Traced};
+use optics_core::prescription::{Prescription, Shape, Surface, ASPHERE_TERMS};
+use serde::{Deserialize, Serialize};
+
+use crate::Error;
+
+/// The lens file format's version.
+pub const LENS_FILE_VERSION: u32 = 1;
+
+/// A lens read from a file: its name, source and surfaces.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LensFile {
+    /// The lens's name.
+    pub name: String,
+    /// Where the prescription comes from.
+    pub source: String,
+    /// The surfaces, object side first.
+    pub surfaces: Vec<Surface<f64>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileToml {
+    version: u32,
+    name: String,
+    #[serde(default)]
+    source: String,
+    surface: Vec<SurfaceToml>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SellmeierToml {
+    b: [f64; 3],
+    c: [f64; 3],
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SurfaceToml {
+    radius: Option<toml::Value>,
+    curvature: Option<f64>,
+    thickness: f64,
+    semi_diameter: f64,
+    glass: Option<String>,
+    nd: Option<f64>,
+    vd: Option<f64>,
+    index: Option<f64>,
+    sellmeier: Option<SellmeierToml>,
+    #[serde(default)]
+    stop: bool,
+    conic: Option<f64>,
+    aspheric: Option<Vec<f64>>,
+}
+
+fn surface_error(i: usize, key: &str, problem: impl std::fmt::Display) -> Error {
+    Error::Message(format!("surface {}: {key}: {problem}", i + 1))
+}
+
+impl SurfaceToml {
+    fn medium(&self, i: usize) -> Result<Medium<f64>, Error> {
+        let given = [
+            self.glass.is_some(),
+            self.nd.is_some() || self.vd.is_some(),
+            self.index.is_some(),
+            self.sellmeier.is_some(),
+        ];
+        if given.iter().filter(|&&g| g).count() > 1 {
+            return Err(surface_error(
+                i,
+                "glass",
+                "give one of glass, nd + vd, index or sellmeier",
+            ));
+        }
+        let medium = if let Some(name) = &self.glass {
+            if name.eq_ignore_ascii_case("air") {
+                Medium::Air
+            } else {
+                catalogue_glass(name)
+                    .map_err(|_| {
+                        surface_error(
+                            i,
+                            "glass",
+                            format!(
+                                "{name:?} is not in the catalogue ({})",
+                                optics_core::prescription::catalogue::CATALOGUE
+                                    .iter()
+                                    .map(|g| g.name)
+                                    .collect::<Vec<_>>()
+                                    .join(", ")
+                            ),
+                        )
+                    })?
+                    .medium()
+            }
+        } else if self.nd.is_some() || self.vd.is_some() {
+            match (self.nd, self.vd) {
+                (Some(nd), Some(vd)) => Medium::Model { nd, vd },
+                _ => return Err(surface_error(i, "nd", "a model glass needs both nd and vd")),
+            }
+        } else if let Some(n) = self.index {
+            Medium::Constant { n }
+        } else if let Some(s) = &self.sellmeier {
+            Medium::Sellmeier { b: s.b, c_um2: s.c }
+        } else {
+            Medium::Air
+        };
+        medium
+            .validate()
+            .map_err(|e| surface_error(i, "glass", e))?;
+        Ok(medium)
+    }
+
+    fn shape(&self, i: usize) -> Result<Shape<f64>, Error> {
+        let curvature = match (&self.radius, self.curvature) {
+            (Some(_), Some(_)) => {
+                return Err(surface_error(
+                    i,
+                    "radius",
+                    "give radius or curvature, not both",
+                ))
+            }
+            (None, Some(c)) => c,
+            (None, None) => 0.0,
+            (Some(toml::Value::String(s)), None) if s.eq_ignore_ascii_case("inf") => 0.0,
+            (Some(v), None) => {
+                let r = v
+                    .as_float()
+                    .or_else(|| v.as_integer().map(|n| n as f64))
+                    .ok_or_else(|| {
+                        surface_error(i, "radius", "a number of millimetres or \"inf\"")
+                    })?;
+                if r == 0.0 || r.is_infinite() {
+                    0.0
+                } else {
+                    1.0 / r
+                }
+            }
+        };
+        if !curvature.is_finite() {
+            return Err(surface_error(i, "radius", "finite"));
+        }
+        match (&self.aspheric, self.conic) {
+            (None, None) if curvature == 0.0 => Ok(Shape::Flat),
+            (None, None) => Ok(Shape::Sphere { curvature }),
+            (terms, conic) => {
+                let terms = terms.as_deref().unwrap_or(&[]);
+                if terms.len() > ASPHERE_TERMS {
+                    return Err(surface_error(
+                        i,
+                        "aspheric",
+                        format!("at most {ASPHERE_TERMS} coefficients (A4 to A16)"),
+                    ));
+                }
+                let mut coefficients = [0.0; ASPHERE_TERMS];
+                coefficients[..terms.len()].copy_from_slice(terms);
+                Ok(Shape::EvenAsphere {
+                    curvature,
+                    conic: conic.unwrap_or(0.0),
+                    coefficients,
+                })
+            }
+        }
+    }
+}
+
+impl LensFile {
+    /// Reads a lens file: `.dat` as pbrt's format (single indices as model glasses of Abbe
+    /// number `pbrt_abbe`), anything else as the TOML format.
+    pub fn read(path: &Path, pbrt_abbe: f64) -> Result<Self, Error> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| Error::Format(raw_formats::FormatError::io(path, e)))?;
+        let lens = if path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("dat"))
+        {
+            Self::from_pbrt(&text, pbrt_abbe)
+        } else {
+            Self::from_toml(&text)
+        };
+        lens.map_err(|e| e.in_file(path))
+    }
+
+    /// Parses the TOML format.
+    pub fn from_toml(text: &str) -> Result<Self, Error> {
+        let file: FileToml =
+            toml::from_str(text).map_err(|e| Error::Message(format!("lens file: {e}")))?;
+        if file.version != LENS_FILE_VERSION {
+            return Err(Error::Message(format!(
+                "lens file version {} (this camsim reads version {LENS_FILE_VERSION})",
+                file.version
+            )));
+        }
+        let surfaces = file
+            .surface
+            .iter()
+            .enumerate()
+            .map(|(i, s)| {
+                Ok(Surface {
+                    shape: s.shape(i)?,
+                    semi_diameter: s.semi_diameter,
+                    thickness: s.thickness,
+                    medium: s.medium(i)?,
+                    is_stop: s.stop,
+                })
+            })
+            .collect::<Result<Vec<_>, Error>>()?;
+        let lens = LensFile {
+            name: file.name,
+            source: file.source,
+            surfaces,
+        };
+        lens.prescription()?;
+        Ok(lens)
+    }
+
+    /// Parses pbrt's lens format: one surface per line, `radius thickness index aperture`
+    /// (mm; radius 0 is the stop, aperture a diameter; index 0 or 1 is air), `#` comments.
+    /// pbrt has one index per element: each becomes a model glass of Abbe number `abbe`.
+    pub fn from_pbrt(text: &str, abbe: f64) -> Result<Self, Error> {
+        let mut surfaces = Vec::new();
+        for (n, line) in text.lines().enumerate() {
+            let line = line.split('#').next().unwrap_or("").trim();
+            if line.is_empty() {
+                continue;
+            }
+            let v: Vec<f64> = line
+                .split_whitespace()
+                .map(|t| t.parse::<f64>())
+                .collect::<Result<_, _>>()
+                .map_err(|_| Error::Message(format!("line {}: four numbers expected", n + 1)))?;
+            let [radius, thickness, index, aperture] = v[..] else {
+                return Err(Error::Message(format!(
+                    "line {}: four numbers expected (radius thickness index aperture), got {}",
+                    n + 1,
+                    v.len()
+                )));
+            };
+            let stop = radius == 0.0;
+            let medium = if index == 0.0 || index == 1.0 {
+                Medium::Air
+            } else {
+                Medium::Model {
+                    nd: index,
+                    vd: abbe,
+                }
+            };
+            surfaces.push(Surface {
+                shape: Shape::sphere_radius(radius),
+                semi_diameter: aperture / 2.0,
+                thickness,
+                medium,
+                is_stop: stop,
+            });
+        }
+        let lens = LensFile {
+            name: "pbrt lens".into(),
+            source: format!(
+                "pbrt lens file; single indices as model glasses of Abbe number {abbe}"
+            ),
+            surfaces,
+        };
+        lens.prescription()?;
+        Ok(lens)
+    }
+
+    /// The checked prescription.
+    pub fn prescription(&self) -> Result<Prescription<'_, f64>, Error> {
+        Prescription::new(&self.surfaces).map_err(|source| Error::Optics {
+            option: "lens",
+            source,
+        })
+    }
+}
+
+/// The paraxial data `camsim lens` prints, at one wavelength.
+#[derive(Debug, Clone, Serialize)]
+pub struct LensReport {
+    /// The lens's name.
+    pub name: String,
+    /// Where its prescription comes from.
+    pub source: String,
+    /// Surfaces.
+    pub surfaces: usize,
+    /// The stop's surface, counted from 1.
+    pub stop_surface: usize,
+    /// Wavelength, nm.
+    pub wavelength_nm: f64,
+    /// Effective focal length, mm.
+    pub efl_mm: f64,
+    /// Back focal length (last vertex to rear focal point), mm.
+    pub bfl_mm: f64,
+    /// Front focal length (first vertex to front focal point), mm.
+    pub ffl_mm: f64,
+    /// First vertex to the front principal plane, mm.
+    pub front_principal_mm: f64,
+    /// Last vertex to the rear principal plane, mm.
+    pub rear_principal_mm: f64,
+    /// Entrance pupil position from the first vertex, mm.
+    pub entrance_pupil_position_mm: f64,
+    /// Entrance pupil diameter, mm.
+    pub entrance_pupil_diameter_mm: f64,
+    /// Exit pupil position from the last vertex, mm (`None`: at infinity).
+    pub exit_pupil_position_mm: Option<f64>,
+    /// Exit pupil diameter, mm.
+    pub exit_pupil_diameter_mm: Option<f64>,
+    /// f-number at infinite conjugate, EFL / EPD.
+    pub f_number: f64,
+    /// First vertex to the image plane the file gives, mm.
+    pub total_length_mm: f64,
+}
+
+impl LensReport {
+    /// The report of `lens` at `wavelength_nm`.
+    pub fn of(lens: &LensFile, wavelength_nm: f64) -> Result<Self, Error> {
+        let p = lens.prescription()?;
+        let optics = |source| Error::Optics {
+            option: "lens",
+            source,
+        };
+        let x: Paraxial<f64> = p.paraxial(wavelength_nm).map_err(optics)?;
+        Ok(LensReport {
+            name: lens.name.clone(),
+            source: lens.source.clone(),
+            surfaces: lens.surfaces.len(),
+            stop_surface: p.stop_index() + 1,
+            wavelength_nm,
+            efl_mm: x.efl,
+            bfl_mm: x.bfl,
+            ffl_mm: x.ffl,
+            front_principal_mm: x.front_principal,
+            rear_principal_mm: x.rear_principal,
+            entrance_pupil_position_mm: x.entrance_pupil.position,
+            entrance_pupil_diameter_mm: 2.0 * x.entrance_pupil.semi_diameter,
+            exit_pupil_position_mm: x.exit_pupil.map(|e| e.position),
+            exit_pupil_diameter_mm: x.exit_pupil.map(|e| 2.0 * e.semi_diameter),
+            f_number: x.f_number,
+            total_length_mm: p.total_length(),
+        })
+    }
+
+    /// The report as a table.
+    pub fn to_table(&self) -> String {
+        let opt = |v: Option<f64>| v.map_or("at infinity".to_string(), |v| format!("{v:.6}"));
+        let mut s = format!("{}\n", self.name);
+        if !self.source.is_empty() {
+            s += &format!("source: {}\n", self.source);
+        }
+        s += &format!(
+            "{} surfaces, stop at surface {}; paraxial at {} nm\n",
+            self.surfaces, self.stop_surface, self.wavelength_nm
+        );
+        for (what, v) in [
+            ("effective focal length", format!("{:.6} mm", self.efl_mm)),
+            ("back focal length", format!("{:.6} mm", self.bfl_mm)),
+            ("front focal length", format!("{:.6} mm", self.ffl_mm)),
+            (
+                "front principal plane",
+                format!("{:.6} mm from the first vertex", self.front_principal_mm),
+            ),
+            (
+                "rear principal plane",
+                format!("{:.6} mm from the last vertex", self.rear_principal_mm),
+            ),
+            (
+                "entrance pupil",
+                format!(
+                    "{:.6} mm from the first vertex, diameter {:.6} mm",
+                    self.entrance_pupil_position_mm, self.entrance_pupil_diameter_mm
+                ),
+            ),
+            (
+                "exit pupil",
+                format!(
+                    "{} mm from the last vertex, diameter {} mm",
+                    opt(self.exit_pupil_position_mm),
+                    opt(self.exit_pupil_diameter_mm)
+                ),
+            ),
+            (
+                "f-number (infinite conjugate)",
+                format!("{:.4}", self.f_number),
+            ),
+            (
+                "first vertex to image plane",
+                format!("{:.6} mm", self.total_length_mm),
+            ),
+        ] {
+            s += &format!("  {what:<30} {v}\n");
+        }
+        s
+    }
+}
+
+/// A ray of a `--trace` file.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RayInput {
+    /// Start point in the first vertex's frame, mm (`z` along the axis, towards the image).
+    pub origin: [f64; 3],
+    /// Direction (any length but zero).
+    pub direction: [f64; 3],
+    /// Wavelength in air, nm (default the d line, 587.56 nm).
+    #[serde(default = "d_line")]
+    pub wavelength_nm: f64,
+}
+
+fn d_line() -> f64 {
+    LAMBDA_D_NM
+}
+
+/// Where a ray ended.
+#[derive(Debug, Clone, Serialize)]
+pub struct RayOutcome {
+    /// The wavelength, nm.
+    pub wavelength_nm: f64,
+    /// Where it meets the paraxial image plane (the rear focal plane at the report's
+    /// wavelength), mm in the first vertex's frame; `None` when lost.
+    pub image: Option<[f64; 3]>,
+    /// Its unit direction there.
+    pub direction: Option<[f64; 3]>,
+    /// The surface (counted from 1; surfaces + 1 is the image plane) that lost it.
+    pub lost_at_surface: Option<usize>,
+    /// Why it was lost: `missed`, `vignetted`, `total internal reflection`, `no intersection`.
+    pub lost_because: Option<&'static str>,
+}
+
+/// Traces `rays` through `lens` to its paraxial image plane at `wavelength_nm` (the rear
+/// focal plane: the last thickness replaced by the back focal length).
+pub fn trace_rays(
+    lens: &LensFile,
+    rays: &[RayInput],
+    wavelength_nm: f64,
+) -> Result<Vec<RayOutcome>, Error> {
+    let optics = |source| Error::Optics {
+        option: "--trace",
+        source,
+    };
+    let p = lens.prescription()?;
+    let bfl = p.paraxial(wavelength_nm).map_err(optics)?.bfl;
+    let mut surfaces = lens.surfaces.clone();
+    if let Some(last) = surfaces.last_mut() {
+        last.thickness = bfl.max(0.0);
+    }
+    let p = Prescription::new(&surfaces).map_err(optics)?;
+    rays.iter()
+        .enumerate()
+        .map(|(k, r)| {
+            let ray = Ray {
+                origin: r.origin,
+                direction: r.direction,
+                wavelength_nm: r.wavelength_nm,
+            };
+            let traced = p
+                .trace(&ray)
+                .map_err(|source| Error::Message(format!("ray {}: {source}", k + 1)))?;
+            Ok(match traced {
+                Traced::Image { point, direction } => RayOutcome {
+                    wavelength_nm: r.wavelength_nm,
+                    image: Some(point),
+                    direction: Some(direction),
+                    lost_at_surface: None,
+                    lost_because: None,
+                },
+                Traced::Lost { surface, loss } => RayOutcome {
+                    wavelength_nm: r.wavelength_nm,
+                    image: None,
+                    direction: None,
+                    lost_at_surface: Some(surface + 1),
+                    lost_because: Some(match loss {
+                        Loss::Missed => "missed",
+                        Loss::Vignetted => "vignetted",
+                        Loss::TotalInternalReflection => "total internal reflection",
+                        Loss::NoIntersection => "no intersection",
+                    }),
+                },
+            })
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SINGLET: &str = r#"
+version = 1
+name = "Biconvex singlet"
+source = "a test"
+
+[[surface]]
+radius = 50.0
+thickness = 5.0
+semi_diameter = 10.0
+glass = "N-BK7"
+stop = true
+
+[[surface]]
+radius = -50.0
+thickness = 47.0
+semi_diameter = 10.0
+"#;
+
+    #[test]
+    fn a_lens_file_reads_and_reports() {
+        let lens = LensFile::from_toml(SINGLET).unwrap();
+        assert_eq!(lens.surfaces.len(), 2);
+        let r = LensReport::of(&lens, LAMBDA_D_NM).unwrap();
+        assert!(r.efl_mm > 48.0 && r.efl_mm < 50.0);
+        assert_eq!(r.stop_surface, 1);
+        assert!(r.to_table().contains("effective focal length"));
+    }
+
+    #[test]
+    fn bad_lens_files_name_the_surface_and_key() {
+        let bad = SINGLET.replace("glass = \"N-BK7\"", "glass = \"N-BK8\"");
+        let e = LensFile::from_toml(&bad).unwrap_err().to_string();
+        assert!(e.contains("surface 1: glass") && e.contains("N-BK7"), "{e}");
+        let bad = SINGLET.replace("stop = true", "");
+        let e = LensFile::from_toml(&bad).unwrap_err().to_string();
+        assert!(e.contains("no aperture stop"), "{e}");
+        let bad = SINGLET.replace("thickness = 5.0", "thickness = -5.0");
+        let e = LensFile::from_toml(&bad).unwrap_err().to_string();
+        assert!(e.contains("surface 0") || e.contains("thickness"), "{e}");
+        let bad = SINGLET.replace("radius = -50.0", "radius = -50.0\nwobble = 1");
+        assert!(LensFile::from_toml(&bad).is_err());
+        let bad = SINGLET.replace("glass = \"N-BK7\"", "nd = 1.5");
+        let e = LensFile::from_toml(&bad).unwrap_err().to_string();
+        assert!(e.contains("nd and vd"), "{e}");
+        let bad = SINGLET.replace("version = 1", "version = 9");
+        assert!(LensFile::from_toml(&bad).is_err());
+    }
+
+    #[test]
+    fn pbrt_files_read_with_a_stated_abbe_number() {
+        let dat = "# radius thickness index aperture\n50 5 1.5168 20\n-50 2 1 20\n0 45 0 16\n";
+        let lens = LensFile::from_pbrt(dat, 64.17).unwrap();
+        assert_eq!(lens.surfaces.len(), 3);
+        assert!(lens.surfaces[2].is_stop);
+        assert_eq!(
+            lens.surfaces[0].medium,
+            Medium::Model {
+                nd: 1.5168,
+                vd: 64.17
+            }
+        );
+        assert!(LensFile::from_pbrt("50 5 1.5\n", 50.0).is_err());
+    }
+
+    #[test]
+    fn traced_rays_say_where_they_land_or_why_not() {
+        let lens = LensFile::from_toml(SINGLET).unwrap();
+        let rays = [
+            RayInput {
+                origin: [0.001, 0.0, -1.0],
+                direction: [0.0, 0.0, 1.0],
+                wavelength_nm: LAMBDA_D_NM,
+            },
+            RayInput {
+                origin: [11.0, 0.0, -1.0],
+                direction: [0.0, 0.0, 1.0],
+                wavelength_nm: LAMBDA_D_NM,
+            },
+        ];
+        let out = trace_rays(&lens, &rays, LAMBDA_D_NM).unwrap();
+        assert!(out[0].image.unwrap()[0].abs() < 1e-6);
+        assert_eq!(out[1].lost_at_surface, Some(1));
+        assert_eq!(out[1].lost_because, Some("vignetted"));
+    }
+}

@@ -1,0 +1,104 @@
+//! `camsim lens` end to end on the lenses that ship in `camsim/lenses/`: each reads, its
+//! paraxial f-number is the design's, its focal length is the same from the table and the
+//! JSON, rays trace (and one beyond the front element is vignetted there); bad files are
+//! refused with the file and surface named.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+use serde_json::Value;
+
+fn camsim(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_camsim"))
+        .args(args)
+        .output()
+        .expect("camsim runs")
+}
+
+fn lens_path(name: &str) -> String {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("lenses")
+        .join(name)
+        .to_string_lossy()
+        .into_owned()
+}
+
+#[test]
+fn the_shipped_lenses_report_their_design_f_numbers() {
+    for (file, f_number) in [
+        ("tessar-f4.5.toml", 4.5),
+        ("telephoto-f5.6.toml", 5.6),
+        ("wide-angle-100deg-f4.toml", 4.0),
+    ] {
+        let path = lens_path(file);
+        let out = camsim(&["lens", &path, "--json"]);
+        assert!(
+            out.status.success(),
+            "{file}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+        let n = v["f_number"].as_f64().unwrap();
+        assert!((n - f_number).abs() < 1e-4 * f_number, "{file}: f/{n}");
+        assert!(
+            !v["source"].as_str().unwrap().is_empty(),
+            "{file}: no source"
+        );
+        let table = String::from_utf8(camsim(&["lens", &path]).stdout).unwrap();
+        let efl = format!("{:.6} mm", v["efl_mm"].as_f64().unwrap());
+        assert!(table.contains(&efl), "{file}: {table}");
+        // The figures change with the wavelength: the glasses disperse.
+        let blue: Value = serde_json::from_slice(
+            &camsim(&["lens", &path, "--json", "--wavelength", "486.1327"]).stdout,
+        )
+        .unwrap();
+        assert_ne!(blue["bfl_mm"], v["bfl_mm"], "{file}");
+    }
+}
+
+#[test]
+fn rays_trace_to_the_image_plane_or_say_where_they_stopped() {
+    let path = lens_path("tessar-f4.5.toml");
+    let dir = std::env::temp_dir().join(format!("camsim-lens-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let rays = dir.join("rays.json");
+    std::fs::write(
+        &rays,
+        r#"[{"origin": [0.001, 0, -5], "direction": [0, 0, 1]},
+            {"origin": [25, 0, -5], "direction": [0, 0, 1], "wavelength_nm": 656.2725}]"#,
+    )
+    .unwrap();
+    let out = camsim(&["lens", &path, "--json", "--trace", rays.to_str().unwrap()]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let image = &v["rays"][0]["image"];
+    assert!(image[0].as_f64().unwrap().abs() < 1e-6, "{v}");
+    assert_eq!(v["rays"][1]["lost_at_surface"], 1);
+    assert_eq!(v["rays"][1]["lost_because"], "vignetted");
+    let text =
+        String::from_utf8(camsim(&["lens", &path, "--trace", rays.to_str().unwrap()]).stdout)
+            .unwrap();
+    assert!(text.contains("lost at surface 1: vignetted"), "{text}");
+
+    // Bad input: the file and the surface named.
+    let bad = dir.join("bad.toml");
+    let good = std::fs::read_to_string(&path).unwrap();
+    std::fs::write(&bad, good.replacen("glass = \"F2\"", "glass = \"F99\"", 1)).unwrap();
+    let out = camsim(&["lens", bad.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        err.contains("bad.toml") && err.contains("surface 3: glass") && err.contains("F99"),
+        "{err}"
+    );
+    std::fs::write(&rays, "[{\"origin\": [0, 0]}]").unwrap();
+    let out = camsim(&["lens", &path, "--trace", rays.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    let out = camsim(&["lens", &path, "--wavelength", "5000"]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--wavelength"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
