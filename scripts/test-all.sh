@@ -27,11 +27,12 @@ else
 fi
 export CAMSIM_ORACLE_PYTHON="$PWD/.venv/bin/python"
 
-# The tuning peers (rpi-ctt, emva1288, colour-checker-detection) in .venv-tune: they want
-# OpenCV 4, which cannot share .venv with the oracle's OpenCV 5. Every package is pinned in the
+# The tuning peers (rpi-ctt, emva1288, colour-checker-detection) and the lens peer (optiland)
+# in .venv-tune: the tuning peers want OpenCV 4, which cannot share .venv with the oracle's
+# OpenCV 5. Every package is pinned in the
 # file and installed with --no-deps (their opencv-python requirement is met by the headless
 # wheel's cv2). Made once; made again only when the requirements change.
-step "tuning peers' environment (.venv-tune from tests/oracle/tune-peers-requirements.txt)"
+step "tuning and lens peers' environment (.venv-tune from tests/oracle/tune-peers-requirements.txt)"
 tune_requirements=tests/oracle/tune-peers-requirements.txt
 tune_stamp=.venv-tune/camsim-requirements.txt
 if [ -x .venv-tune/bin/python ] && cmp -s "$tune_requirements" "$tune_stamp"; then

@@ -102,3 +102,59 @@ fn rays_trace_to_the_image_plane_or_say_where_they_stopped() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("--wavelength"));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The peers' Python (`.venv-tune`, which carries optiland), or `None` outside CI.
+fn peers_python() -> Option<PathBuf> {
+    let python = std::env::var_os("CAMSIM_TUNE_PYTHON")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| {
+            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../.venv-tune/bin/python")
+        });
+    if python.is_file() {
+        return Some(python);
+    }
+    let why = format!(
+        "no peers' Python with optiland at {} (scripts/test-all.sh makes .venv-tune)",
+        python.display()
+    );
+    if std::env::var_os("CAMSIM_REQUIRE_ORACLE").is_some() {
+        panic!("{why}; required here (CAMSIM_REQUIRE_ORACLE is set)");
+    }
+    eprintln!("NOTE: {why}: the comparison with optiland did not run; CI requires it");
+    None
+}
+
+/// Every shipped lens beside optiland 0.6.3 at the F, d and C lines: focal lengths, back
+/// focus, pupil positions and diameters within 1e-6 relative, and real rays over three fields
+/// and seven pupil points within 1e-6 mm on the same image plane
+/// (`scripts/compare-optiland-lens.py`, which exits 1 otherwise).
+#[test]
+fn the_shipped_lenses_agree_with_optiland() {
+    let Some(python) = peers_python() else {
+        return;
+    };
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    let mut lenses: Vec<PathBuf> = std::fs::read_dir(root.join("camsim/lenses"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    lenses.sort();
+    assert!(lenses.len() >= 3);
+    let out = Command::new(python)
+        .arg("-W")
+        .arg("ignore")
+        .arg(root.join("scripts/compare-optiland-lens.py"))
+        .arg(env!("CARGO_BIN_EXE_camsim"))
+        .args(&lenses)
+        .output()
+        .expect("the comparison runs");
+    let text = String::from_utf8_lossy(&out.stdout);
+    println!("{text}");
+    assert!(
+        out.status.success(),
+        "camsim and optiland differ:\n{text}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.contains("largest paraxial difference"), "{text}");
+}
