@@ -5,7 +5,8 @@ same image plane (the paraxial focal plane at that wavelength).
 
 Usage: python scripts/compare-optiland-lens.py CAMSIM LENS.toml... (optiland and tomllib
 importable). Prints the largest differences and exits 1 when one exceeds the issue's bounds:
-paraxial figures 1e-6 relative, ray intercepts 1e-6 mm.
+paraxial figures 1e-6 relative, ray intercepts 1e-6 mm, distortion 1e-4 percentage points (over
+the file's field_deg, f-tan, on the paraxial focal plane), chromatic focal shift 0.1 um.
 """
 
 import json
@@ -21,6 +22,7 @@ import numpy as np
 warnings.filterwarnings("ignore")
 
 from optiland import optic  # noqa: E402
+from optiland.analysis.distortion_strategies.model import create_distortion_model  # noqa: E402
 
 LINES = (486.1327, 587.5618, 656.2725)
 
@@ -66,6 +68,7 @@ def main() -> int:
     binary, files = sys.argv[1], sys.argv[2:]
     worst_paraxial, worst_ray = 0.0, 0.0
     compared, vignetted = 0, 0
+    worst_distortion, worst_shift = 0.0, 0.0
     for path in files:
         with open(path, "rb") as f:
             lens = tomllib.load(f)
@@ -73,7 +76,7 @@ def main() -> int:
         for wl in LINES:
             ours = camsim(binary, path, wl)
             bfl = ours["bfl_mm"]
-            field = 15.0
+            field = float(lens.get("field_deg", 15.0))
             o = build(lens, wl, bfl, field)
             p = o.paraxial
             peer = {
@@ -89,6 +92,27 @@ def main() -> int:
                 worst_paraxial = max(worst_paraxial, d)
                 if d > 1e-6:
                     print(f"{path} {wl} nm {key}: camsim {ours[key]!r} optiland {v!r}")
+            # Distortion on the same plane, f-tan, against optiland's chief-ray model.
+            curves = ours.get("curves")
+            if curves:
+                hy = np.array([k / 10.0 for k in range(1, 11)])
+                model = create_distortion_model("paraxial", distortion_type="f-tan")
+                result = model.compute(o, np.zeros_like(hy), hy, wl / 1000.0)
+                peer_d = np.ravel(np.asarray(model.percent(result, signed=True)))
+                for k in range(10):
+                    mine = curves["distortion_percent"][k + 1]
+                    if mine is None:
+                        continue
+                    d = abs(mine - float(peer_d[k]))
+                    worst_distortion = max(worst_distortion, d)
+                    if d > 1e-4:
+                        print(f"{path} {wl} nm field {hy[k]}: distortion {mine} % (camsim) and {peer_d[k]} % (optiland)")
+            # Chromatic focal shift: the back focus against the d line's, optiland's paraxial.
+            if wl != 587.5618:
+                d_line = build(lens, 587.5618, bfl, field).paraxial
+                peer_shift = scalar(p.F2()) - scalar(d_line.F2())
+                mine = ours["bfl_mm"] - camsim(binary, path, 587.5618)["bfl_mm"]
+                worst_shift = max(worst_shift, abs(mine - peer_shift) * 1000.0)
             # Real rays: optiland's own starting rays (aimed at its paraxial entrance pupil),
             # traced by both to the paraxial focal plane at this wavelength.
             rays, hits = [], []
@@ -120,8 +144,10 @@ def main() -> int:
                 if d > 1e-6:
                     print(f"{path} {wl} nm: ray lands at {r['image'][:2]} (camsim) and {hit} (optiland)")
         print(f"{path}: checked at {LINES} nm")
+    print(f"largest distortion difference {worst_distortion:.3g} percentage points; largest chromatic focal shift difference {worst_shift:.3g} um")
     print(f"largest paraxial difference {worst_paraxial:.3g} (relative); largest ray difference {worst_ray:.3g} mm over {compared} rays ({vignetted} vignetted by camsim's clear apertures, which optiland is not given)")
-    return 0 if worst_paraxial <= 1e-6 and worst_ray <= 1e-6 else 1
+    ok = worst_paraxial <= 1e-6 and worst_ray <= 1e-6 and worst_distortion <= 1e-4 and worst_shift <= 0.1
+    return 0 if ok else 1
 
 
 if __name__ == "__main__":

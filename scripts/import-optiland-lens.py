@@ -82,6 +82,7 @@ def write(path: pathlib.Path, lens, name: str, source: str) -> None:
         "version = 1",
         f"name = {json.dumps(name)}",
         f"source = {json.dumps(source)}",
+        f"field_deg = {max(abs(f.y) for f in lens.fields.fields)!r}",
         "",
     ]
     surfaces = sg.surfaces[1:-1]  # the object and image surfaces are not surfaces of the lens

@@ -8,6 +8,7 @@
 //! version = 1
 //! name = "Biconvex singlet"
 //! source = "where the prescription comes from (a patent, a book, a page)"
+//! field_deg = 20.0         # optional: the design's half field of view (the curves' span)
 //!
 //! [[surface]]
 //! radius = 50.0            # mm; 0 or "inf" (absent) is flat; or `curvature` (1/mm)
@@ -49,6 +50,9 @@ pub struct LensFile {
     pub source: String,
     /// The surfaces, object side first.
     pub surfaces: Vec<Surface<f64>>,
+    /// The design's half field of view, degrees (object at infinity), if the file gives it:
+    /// the field the report's curves span.
+    pub field_deg: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -58,6 +62,7 @@ struct FileToml {
     name: String,
     #[serde(default)]
     source: String,
+    field_deg: Option<f64>,
     surface: Vec<SurfaceToml>,
 }
 
@@ -238,10 +243,18 @@ impl LensFile {
                 })
             })
             .collect::<Result<Vec<_>, Error>>()?;
+        if let Some(f) = file.field_deg {
+            if !(f > 0.0 && f < 85.0) {
+                return Err(Error::Message(format!(
+                    "field_deg: the half field of view must be above 0 and below 85 degrees (got {f})"
+                )));
+            }
+        }
         let lens = LensFile {
             name: file.name,
             source: file.source,
             surfaces,
+            field_deg: file.field_deg,
         };
         lens.prescription()?;
         Ok(lens)
@@ -292,6 +305,7 @@ impl LensFile {
                 "pbrt lens file; single indices as model glasses of Abbe number {abbe}"
             ),
             surfaces,
+            field_deg: None,
         };
         lens.prescription()?;
         Ok(lens)
@@ -341,6 +355,26 @@ pub struct LensReport {
     pub f_number: f64,
     /// First vertex to the image plane the file gives, mm.
     pub total_length_mm: f64,
+    /// Curves against the field, when the file gives its field.
+    pub curves: Option<FieldCurves>,
+    /// Chromatic focal shift against the d line, micrometres, at 400 to 700 nm by 20 nm.
+    pub chromatic_focal_shift: Vec<(f64, f64)>,
+}
+
+/// Real-ray curves against the field angle (object at infinity), at the report's wavelength,
+/// on its paraxial focal plane (optics-core's `prescription::analysis`).
+#[derive(Debug, Clone, Serialize)]
+pub struct FieldCurves {
+    /// Field angles, degrees: 0 to the design's half field in ten steps.
+    pub field_deg: Vec<f64>,
+    /// Distortion against `efl tan(field)`, percent (`None`: the chief ray is lost).
+    pub distortion_percent: Vec<Option<f64>>,
+    /// Lateral colour, the chief ray at F (486.13 nm) less at C (656.27 nm), micrometres.
+    pub lateral_colour_um: Vec<Option<f64>>,
+    /// Relative illumination (vignetting times the cosine-fourth law in image space).
+    pub relative_illumination: Vec<Option<f64>>,
+    /// RMS spot radius, micrometres (a 33 x 33 pupil grid).
+    pub rms_spot_um: Vec<Option<f64>>,
 }
 
 impl LensReport {
@@ -369,6 +403,18 @@ impl LensReport {
             exit_pupil_diameter_mm: x.exit_pupil.map(|e| 2.0 * e.semi_diameter),
             f_number: x.f_number,
             total_length_mm: p.total_length(),
+            curves: lens
+                .field_deg
+                .map(|max| field_curves(&p, max, wavelength_nm))
+                .transpose()?,
+            chromatic_focal_shift: (0..=15)
+                .map(|k| {
+                    let nm = 400.0 + 20.0 * k as f64;
+                    p.chromatic_focal_shift(nm, LAMBDA_D_NM)
+                        .map(|s| (nm, 1000.0 * s))
+                        .map_err(optics)
+                })
+                .collect::<Result<_, _>>()?,
         })
     }
 
@@ -421,8 +467,68 @@ impl LensReport {
         ] {
             s += &format!("  {what:<30} {v}\n");
         }
+        if let Some(c) = &self.curves {
+            let cell = |v: Option<f64>, digits: usize| {
+                v.map_or("lost".to_string(), |v| format!("{v:.digits$}"))
+            };
+            s += "  field deg  distortion %  lateral colour um  rel. illumination  RMS spot um\n";
+            for k in 0..c.field_deg.len() {
+                s += &format!(
+                    "  {:>9.2}  {:>12}  {:>17}  {:>17}  {:>11}\n",
+                    c.field_deg[k],
+                    cell(c.distortion_percent[k], 4),
+                    cell(c.lateral_colour_um[k], 3),
+                    cell(c.relative_illumination[k], 4),
+                    cell(c.rms_spot_um[k], 2)
+                );
+            }
+        }
         s
     }
+}
+
+/// The curves of `p` over 0 to `max_deg` at `wavelength_nm`.
+fn field_curves(
+    p: &Prescription<'_, f64>,
+    max_deg: f64,
+    wavelength_nm: f64,
+) -> Result<FieldCurves, Error> {
+    use optics_core::prescription::glass::{LAMBDA_C_NM, LAMBDA_F_NM};
+    let optics = |source| Error::Optics {
+        option: "lens curves",
+        source,
+    };
+    let field_deg: Vec<f64> = (0..=10).map(|k| max_deg * k as f64 / 10.0).collect();
+    let mut c = FieldCurves {
+        field_deg: field_deg.clone(),
+        distortion_percent: Vec::new(),
+        lateral_colour_um: Vec::new(),
+        relative_illumination: Vec::new(),
+        rms_spot_um: Vec::new(),
+    };
+    for &deg in &field_deg {
+        let rad = deg.to_radians();
+        c.distortion_percent.push(if deg == 0.0 {
+            Some(0.0)
+        } else {
+            p.distortion_percent(rad, wavelength_nm).map_err(optics)?
+        });
+        c.lateral_colour_um.push(
+            p.lateral_colour(rad, LAMBDA_F_NM, LAMBDA_C_NM, wavelength_nm)
+                .map_err(optics)?
+                .map(|v| 1000.0 * v),
+        );
+        c.relative_illumination.push(
+            p.relative_illumination(rad, wavelength_nm, 33)
+                .map_err(optics)?,
+        );
+        c.rms_spot_um.push(
+            p.rms_spot(rad, wavelength_nm, 33)
+                .map_err(optics)?
+                .map(|v| 1000.0 * v),
+        );
+    }
+    Ok(c)
 }
 
 /// A ray of a `--trace` file.

@@ -433,3 +433,116 @@ fn a_long_gap_before_a_concave_surface_finds_the_near_root() {
         );
     }
 }
+
+/// A biconvex N-BK7 singlet (f about 49 mm) with the stop `stop_gap` mm in front of it
+/// (0: at its first vertex).
+fn singlet_with_stop(stop_gap: f64) -> Vec<Surface<f64>> {
+    let bk7 = glass("N-BK7");
+    let mut s = Vec::new();
+    if stop_gap > 0.0 {
+        s.push(Surface::aperture_stop(4.0, stop_gap));
+        s.push(Surface::new(Shape::sphere_radius(50.0), 15.0, 5.0, bk7));
+    } else {
+        s.push(Surface::new(Shape::sphere_radius(50.0), 15.0, 5.0, bk7).stop());
+    }
+    s.push(Surface::new(
+        Shape::sphere_radius(-50.0),
+        15.0,
+        47.0,
+        Medium::Air,
+    ));
+    s
+}
+
+#[test]
+fn field_curves_behave_as_the_textbooks_say() {
+    let front = singlet_with_stop(20.0);
+    let lens = Prescription::new(&front).unwrap();
+    let field = 15f64.to_radians();
+    // A stop in front of a positive lens gives barrel distortion, vanishing towards the axis.
+    let d = lens
+        .distortion_percent(field, LAMBDA_D_NM)
+        .unwrap()
+        .unwrap();
+    assert!(d < -0.1, "distortion {d} %");
+    let d0 = lens.distortion_percent(1e-3, LAMBDA_D_NM).unwrap().unwrap();
+    assert!(d0.abs() < 1e-4, "near the axis {d0} %");
+    // Longitudinal colour of a thin lens: f(F) - f(C) = -f / Vd.
+    let p = lens.paraxial(LAMBDA_D_NM).unwrap();
+    let (_, vd) = glass("N-BK7").nd_vd().unwrap().unwrap();
+    let shift = lens
+        .chromatic_focal_shift(LAMBDA_F_NM, LAMBDA_C_NM)
+        .unwrap();
+    assert!(
+        (shift + p.efl / vd).abs() < 0.05 * p.efl / vd,
+        "shift {shift} mm, thin lens {}",
+        -p.efl / vd
+    );
+    assert_eq!(
+        lens.chromatic_focal_shift(LAMBDA_D_NM, LAMBDA_D_NM)
+            .unwrap(),
+        0.0
+    );
+    // Lateral colour: large with the stop away from the lens, small with it at the lens.
+    let away = lens
+        .lateral_colour(field, LAMBDA_F_NM, LAMBDA_C_NM, LAMBDA_D_NM)
+        .unwrap()
+        .unwrap();
+    let at = singlet_with_stop(0.0);
+    let at = Prescription::new(&at).unwrap();
+    let near = at
+        .lateral_colour(field, LAMBDA_F_NM, LAMBDA_C_NM, LAMBDA_D_NM)
+        .unwrap()
+        .unwrap();
+    assert!(
+        away.abs() > 5.0 * near.abs(),
+        "stop away {away} mm, at the lens {near} mm"
+    );
+    // Relative illumination: 1 on the axis, below it off the axis (the cosine-fourth fall
+    // before the lens's rim vignettes anything).
+    let ri0 = lens
+        .relative_illumination(0.0, LAMBDA_D_NM, 33)
+        .unwrap()
+        .unwrap();
+    assert!((ri0 - 1.0).abs() < 1e-12);
+    let ri = lens
+        .relative_illumination(field, LAMBDA_D_NM, 33)
+        .unwrap()
+        .unwrap();
+    assert!(ri < 1.0 && ri > 0.5, "relative illumination {ri}");
+    // Wide enough, the lens's rim vignettes the beam: less light than at 15 degrees.
+    let wide = lens
+        .relative_illumination(30f64.to_radians(), LAMBDA_D_NM, 33)
+        .unwrap();
+    assert!(wide.is_none_or(|w| w < ri), "{wide:?}");
+    // The spot grows off axis.
+    let s0 = lens.rms_spot(0.0, LAMBDA_D_NM, 33).unwrap().unwrap();
+    let s1 = lens.rms_spot(field, LAMBDA_D_NM, 33).unwrap().unwrap();
+    assert!(
+        s0 > 0.0 && s1 > s0,
+        "spot {s0} mm on axis, {s1} mm at 15 degrees"
+    );
+    assert!(lens.rms_spot(0.0, LAMBDA_D_NM, 1).is_err());
+    assert!(lens.aimed_ray(f64::NAN, [0.0; 2], LAMBDA_D_NM).is_err());
+}
+
+/// Descartes' ellipsoid focuses every ray of the axial beam on one point: its RMS spot is
+/// zero to rounding.
+#[test]
+fn a_perfect_surface_has_a_zero_spot() {
+    let n = 1.5_f64;
+    let s = [Surface {
+        shape: Shape::EvenAsphere {
+            curvature: 1.0 / 20.0,
+            conic: -1.0 / (n * n),
+            coefficients: [0.0; ASPHERE_TERMS],
+        },
+        semi_diameter: 12.0,
+        thickness: 60.0,
+        medium: Medium::Constant { n },
+        is_stop: true,
+    }];
+    let lens = Prescription::new(&s).unwrap();
+    let spot = lens.rms_spot(0.0, 550.0, 65).unwrap().unwrap();
+    assert!(spot < 1e-12, "{spot}");
+}

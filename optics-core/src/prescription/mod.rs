@@ -29,6 +29,7 @@
 //! assert!((p.efl - f).abs() < 1e-3);
 //! ```
 
+pub mod analysis;
 pub mod catalogue;
 pub mod glass;
 pub mod paraxial;

@@ -162,6 +162,18 @@ impl<T: Real> Prescription<'_, T> {
     /// assert_eq!(point, [1.0, 0.0, 10.0]);
     /// ```
     pub fn trace(&self, ray: &Ray<T>) -> Result<Traced<T>> {
+        self.trace_to(ray, self.total_length())
+    }
+
+    /// Traces `ray` to the plane `image_distance` mm after the last vertex (the paraxial focal
+    /// plane, say) instead of the one the prescription's last thickness gives.
+    pub fn trace_to_plane(&self, ray: &Ray<T>, image_distance: T) -> Result<Traced<T>> {
+        finite(image_distance, "image_distance")?;
+        let last = self.vertex_z(self.surfaces.len() - 1);
+        self.trace_to(ray, last + image_distance)
+    }
+
+    fn trace_to(&self, ray: &Ray<T>, image_z: T) -> Result<Traced<T>> {
         for v in ray.origin.iter().chain(ray.direction.iter()) {
             finite(*v, "ray")?;
         }
@@ -209,8 +221,8 @@ impl<T: Real> Prescription<'_, T> {
                 loss: Loss::Missed,
             });
         }
-        let t = (vertex - p[2]) / d[2];
-        let point = [p[0] + t * d[0], p[1] + t * d[1], vertex];
+        let t = (image_z - p[2]) / d[2];
+        let point = [p[0] + t * d[0], p[1] + t * d[1], image_z];
         if point.iter().all(|v| v.is_finite()) {
             Ok(Traced::Image {
                 point,
