@@ -326,3 +326,104 @@ pub fn chart_detection(data: &[u8]) {
         }
     }
 }
+
+/// A lens prescription from bytes (up to six surfaces, each shape, size, glass and stop drawn
+/// from them, in sane ranges or, where the first byte says, as raw bit patterns), then every
+/// analysis on it: errors or finite answers, never a panic.
+pub fn lens_prescription(data: &[u8]) {
+    use optics_core::prescription::glass::Medium;
+    use optics_core::prescription::trace::{Ray, Traced};
+    use optics_core::prescription::{Prescription, Shape, Surface, ASPHERE_TERMS};
+    let raw = data.first().is_some_and(|b| b & 1 == 1);
+    let mut at = 1usize;
+    // The next value: a raw f64 (raw mode) or an i16 scaled to `scale`.
+    let mut next = |scale: f64| -> f64 {
+        if raw {
+            let [v] = f64s::<1>(data.get(at..).unwrap_or(&[]));
+            at += 8;
+            v
+        } else {
+            let b = [
+                data.get(at).copied().unwrap_or(0),
+                data.get(at + 1).copied().unwrap_or(0),
+            ];
+            at += 2;
+            f64::from(i16::from_le_bytes(b)) / 32768.0 * scale
+        }
+    };
+    let count = data.get(1).map_or(1, |b| 1 + usize::from(b % 6));
+    let mut surfaces = [Surface::new(Shape::Flat, 1.0, 1.0, Medium::Air); 6];
+    for (i, s) in surfaces.iter_mut().take(count).enumerate() {
+        let kind = next(3.0).abs() as u32;
+        let curvature = next(0.08);
+        s.shape = match kind {
+            0 => Shape::Flat,
+            1 => Shape::Sphere { curvature },
+            _ => {
+                let mut coefficients = [0.0; ASPHERE_TERMS];
+                coefficients[0] = next(1e-4);
+                coefficients[1] = next(1e-6);
+                Shape::EvenAsphere {
+                    curvature,
+                    conic: next(3.0),
+                    coefficients,
+                }
+            }
+        };
+        // Magnitudes in sane mode, so most drawn lenses pass the checks and reach the traces;
+        // raw mode keeps the signs and NaNs.
+        s.semi_diameter = if raw { next(30.0) } else { next(30.0).abs() };
+        s.thickness = if raw { next(60.0) } else { next(60.0).abs() };
+        let glass = next(4.0).abs() as u32;
+        s.medium = match glass {
+            0 => Medium::Air,
+            1 => Medium::Constant {
+                n: 1.0 + next(1.0).abs(),
+            },
+            2 => Medium::Model {
+                nd: 1.0 + next(1.5).abs(),
+                vd: 10.0 + next(110.0).abs(),
+            },
+            _ => Medium::Sellmeier {
+                b: [next(2.0), next(0.5), next(2.0)],
+                c_um2: [next(0.02), next(0.1), next(200.0)],
+            },
+        };
+        s.is_stop = i == usize::from(data.get(2).copied().unwrap_or(0)) % count;
+    }
+    let wavelength = 300.0 + next(1100.0).abs();
+    let Ok(lens) = Prescription::new(&surfaces[..count]) else {
+        return;
+    };
+    if let Ok(p) = lens.paraxial(wavelength) {
+        assert!(p.efl.is_finite() && p.bfl.is_finite() && p.f_number.is_finite());
+    }
+    if let Ok(c) = lens.conjugate(1000.0 + next(1e4).abs(), wavelength) {
+        assert!(c.image_distance.is_finite() && c.magnification.is_finite());
+    }
+    let ray = Ray {
+        origin: [next(20.0), next(20.0), -1.0 - next(10.0).abs()],
+        direction: [next(1.0), next(1.0), next(1.0)],
+        wavelength_nm: wavelength,
+    };
+    if let Ok(Traced::Image { point, direction }) = lens.trace(&ray) {
+        assert!(point.iter().chain(direction.iter()).all(|v| v.is_finite()));
+    }
+    let field = next(1.0).abs();
+    for v in [
+        lens.distortion_percent(field, wavelength).ok().flatten(),
+        lens.rms_spot(field, wavelength, 3).ok().flatten(),
+        lens.relative_illumination(field, wavelength, 3)
+            .ok()
+            .flatten(),
+        lens.lateral_colour(field, 486.1, 656.3, wavelength)
+            .ok()
+            .flatten(),
+        lens.chromatic_focal_shift(486.1, wavelength).ok(),
+    ]
+    .into_iter()
+    .flatten()
+    {
+        assert!(v.is_finite(), "an analysis answered {v}");
+    }
+}

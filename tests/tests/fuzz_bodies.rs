@@ -17,6 +17,9 @@ proptest! {
 
     #[test]
     fn distortion(data in proptest::collection::vec(any::<u8>(), 0..64)) { distortion_inverse(&data); }
+
+    #[test]
+    fn prescription(data in proptest::collection::vec(any::<u8>(), 0..400)) { lens_prescription(&data); }
 }
 
 /// Scene-like text: lines of `key = value` and table headers from the scene format's
@@ -174,6 +177,7 @@ fn fuzz_regressions_stay_fixed() {
             "optics_fixed" => optics_fixed,
             "bitmap_aperture" => bitmap_aperture,
             "distortion_inverse" => distortion_inverse,
+            "lens_prescription" => lens_prescription,
             "isp_pipeline" => isp_pipeline,
             "demosaic_directional" => demosaic_directional,
             other => panic!("{name}: no fuzz target named {other}"),
