@@ -487,6 +487,16 @@ impl LensReport {
     }
 }
 
+/// Writes `report`'s curves as `dir/lens.svg` (the folder made if missing), in the bench's
+/// chart style, `caption` under it; returns the file written.
+pub fn plot(report: &LensReport, dir: &Path, caption: &str) -> Result<std::path::PathBuf, Error> {
+    std::fs::create_dir_all(dir)
+        .map_err(|e| Error::Format(raw_formats::FormatError::io(dir, e)))?;
+    let path = dir.join("lens.svg");
+    crate::suite::charts::lens_curves(report, caption, &path)?;
+    Ok(path)
+}
+
 /// The curves of `p` over 0 to `max_deg` at `wavelength_nm`.
 fn field_curves(
     p: &Prescription<'_, f64>,

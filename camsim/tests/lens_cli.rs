@@ -95,6 +95,24 @@ fn rays_trace_to_the_image_plane_or_say_where_they_stopped() {
         err.contains("bad.toml") && err.contains("surface 3: glass") && err.contains("F99"),
         "{err}"
     );
+    // --plot writes the curves as one SVG with a panel each.
+    let plots = dir.join("plots");
+    let out = camsim(&["lens", &path, "--plot", plots.to_str().unwrap()]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let svg = std::fs::read_to_string(plots.join("lens.svg")).unwrap();
+    for panel in [
+        "distortion",
+        "lateral colour",
+        "relative illumination",
+        "RMS spot",
+        "chromatic focal shift",
+    ] {
+        assert!(svg.contains(panel), "lens.svg has no {panel} panel");
+    }
     std::fs::write(&rays, "[{\"origin\": [0, 0]}]").unwrap();
     let out = camsim(&["lens", &path, "--trace", rays.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(2));

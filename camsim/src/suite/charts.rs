@@ -1161,3 +1161,106 @@ fn draw_denoise(d: &super::DenoiseSuite, caption: &str, path: &Path) -> Drawn {
     root.present()?;
     Ok(())
 }
+
+/// `camsim lens --plot`: a lens's curves, a panel each (distortion, lateral colour, relative
+/// illumination and RMS spot against the field; chromatic focal shift against the
+/// wavelength), captioned with the lens and the command.
+pub fn lens_curves(
+    report: &crate::lens::LensReport,
+    caption: &str,
+    path: &Path,
+) -> Result<(), Error> {
+    draw_lens_curves(report, caption, path).map_err(failed(path))
+}
+
+/// One panel of the lens chart: title, x label, y label, points (fields where the ray was lost
+/// left out).
+type Panel<'a> = (&'a str, &'a str, &'a str, Vec<(f64, f64)>);
+
+fn draw_lens_curves(report: &crate::lens::LensReport, caption: &str, path: &Path) -> Drawn {
+    let root = SVGBackend::new(path, (1500, 860)).into_drawing_area();
+    let body = captioned(
+        &root,
+        &format!(
+            "{}: EFL {:.2} mm, f/{:.2}, at {} nm",
+            report.name, report.efl_mm, report.f_number, report.wavelength_nm
+        ),
+        22,
+        caption,
+    )?;
+    let panels = body.split_evenly((2, 3));
+    let mut series: Vec<Panel> = Vec::new();
+    if let Some(c) = &report.curves {
+        let pick = |v: &[Option<f64>]| -> Vec<(f64, f64)> {
+            c.field_deg
+                .iter()
+                .zip(v)
+                .filter_map(|(&f, v)| v.map(|v| (f, v)))
+                .collect()
+        };
+        series.push((
+            "distortion",
+            "field (degrees)",
+            "distortion (%)",
+            pick(&c.distortion_percent),
+        ));
+        series.push((
+            "lateral colour, F - C",
+            "field (degrees)",
+            "micrometres",
+            pick(&c.lateral_colour_um),
+        ));
+        series.push((
+            "relative illumination",
+            "field (degrees)",
+            "against the axis",
+            pick(&c.relative_illumination),
+        ));
+        series.push((
+            "RMS spot radius (paraxial focus)",
+            "field (degrees)",
+            "micrometres",
+            pick(&c.rms_spot_um),
+        ));
+    }
+    series.push((
+        "chromatic focal shift against the d line",
+        "wavelength (nm)",
+        "micrometres",
+        report.chromatic_focal_shift.clone(),
+    ));
+    for (k, (title, x_desc, y_desc, points)) in series.into_iter().enumerate() {
+        let Some(panel) = panels.get(k) else { break };
+        if points.is_empty() {
+            continue;
+        }
+        let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+        for &(x, y) in &points {
+            x0 = x0.min(x);
+            x1 = x1.max(x);
+            y0 = y0.min(y);
+            y1 = y1.max(y);
+        }
+        let pad = ((y1 - y0) * 0.08).max(1e-6 * y1.abs().max(1.0));
+        let (x1, y0, y1) = (x1.max(x0 + 1e-9), y0 - pad, y1 + pad);
+        let mut chart = ChartBuilder::on(panel)
+            .caption(title, (FONT, 16))
+            .margin(12)
+            .x_label_area_size(38)
+            .y_label_area_size(64)
+            .build_cartesian_2d(x0..x1, y0..y1)?;
+        chart
+            .configure_mesh()
+            .x_desc(x_desc)
+            .y_desc(y_desc)
+            .x_label_formatter(&|v| tick(*v))
+            .y_label_formatter(&|v| format!("{v:.3}"))
+            .label_style((FONT, 12))
+            .draw()?;
+        let colour = PALETTE[k % PALETTE.len()];
+        chart.draw_series(LineSeries::new(points.clone(), colour.stroke_width(2)))?;
+        chart.draw_series(points.iter().map(|&p| Circle::new(p, 3, colour.filled())))?;
+    }
+    root.present()?;
+    Ok(())
+}

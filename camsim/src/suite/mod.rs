@@ -22,7 +22,7 @@
 //!
 //! This is library code: progress goes through a callback, and nothing prints.
 
-mod charts;
+pub(crate) mod charts;
 pub mod denoise;
 mod markdown;
 pub mod tune;

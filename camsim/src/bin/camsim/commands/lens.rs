@@ -31,6 +31,10 @@ pub struct LensArgs {
     /// Print JSON instead of a table.
     #[arg(long)]
     json: bool,
+    /// Write the curves (distortion, lateral colour, relative illumination, RMS spot against
+    /// the field, chromatic focal shift) as DIR/lens.svg.
+    #[arg(long, value_name = "DIR")]
+    plot: Option<PathBuf>,
 }
 
 /// Runs `camsim lens`.
@@ -49,6 +53,15 @@ pub fn run(args: &LensArgs) -> Result<String, Error> {
     )?;
     let lens = LensFile::read(&args.file, abbe)?;
     let report = LensReport::of(&lens, wavelength).map_err(|e| e.in_file(&args.file))?;
+    if let Some(dir) = &args.plot {
+        let caption = format!(
+            "camsim lens {} --wavelength {wavelength}; {}",
+            args.file.display(),
+            report.source
+        );
+        let path = camsim::lens::plot(&report, dir, &caption)?;
+        eprintln!("lens: wrote {}", path.display());
+    }
     if let Some(path) = &args.trace {
         let text = std::fs::read_to_string(path)
             .map_err(|e| Error::Format(raw_formats::FormatError::io(path, e)))?;
