@@ -13,7 +13,9 @@ True
 
 from __future__ import annotations
 
-from typing import Any, Tuple
+import json
+import os
+from typing import Any, Dict, List, Sequence, Tuple
 
 import numpy as np
 
@@ -32,6 +34,8 @@ __all__ = [
     "sensor_distance_for_focus",
     "power_dioptres",
     "lensmaker_focal_length",
+    "lens",
+    "trace",
 ]
 
 
@@ -115,3 +119,33 @@ def power_dioptres(focal_length: Any) -> np.ndarray:
 def lensmaker_focal_length(n: Any, r1: Any, r2: Any) -> np.ndarray:
     """Thin-lens focal length from the lensmaker's equation (radii in mm, ``inf`` flat)."""
     return _one("lensmaker_focal_length", n, r1, r2)
+
+
+D_LINE_NM = 587.5618
+
+
+def lens(
+    path: "str | os.PathLike[str]", wavelength_nm: float = D_LINE_NM, pbrt_abbe: float = 50.0
+) -> Dict[str, Any]:
+    """A real lens from its file (camsim's TOML lens format, or pbrt's ``.dat`` with single
+    indices as model glasses of Abbe number ``pbrt_abbe``): the paraxial data at
+    ``wavelength_nm`` and, when the file gives its field, the curves against it -- the same
+    dictionary ``camsim lens FILE --json`` prints.
+    """
+    return json.loads(_camsim.lens_report(os.fspath(path), float(wavelength_nm), float(pbrt_abbe)))
+
+
+def trace(
+    path: "str | os.PathLike[str]",
+    rays: Sequence[Dict[str, Any]],
+    wavelength_nm: float = D_LINE_NM,
+    pbrt_abbe: float = 50.0,
+) -> List[Dict[str, Any]]:
+    """Rays through a lens file to its paraxial image plane at ``wavelength_nm``: each ray a
+    dict with ``origin`` and ``direction`` (mm, the first vertex's frame, ``z`` towards the
+    image) and optionally ``wavelength_nm``; each outcome says where it lands (``image``) or
+    which surface lost it and why -- as ``camsim lens FILE --trace RAYS.json --json``.
+    """
+    return json.loads(
+        _camsim.lens_trace(os.fspath(path), json.dumps(list(rays)), float(wavelength_nm), float(pbrt_abbe))
+    )

@@ -103,7 +103,34 @@ fn optics_apply<'py>(
         .collect())
 }
 
+/// A lens file's report (`camsim lens --json`) at `wavelength_nm`, as JSON text.
+#[pyfunction]
+fn lens_report(path: std::path::PathBuf, wavelength_nm: f64, pbrt_abbe: f64) -> PyResult<String> {
+    let lens = camsim::lens::LensFile::read(&path, pbrt_abbe).map_err(errors::camsim)?;
+    let report = camsim::lens::LensReport::of(&lens, wavelength_nm)
+        .map_err(|e| errors::camsim(e.in_file(&path)))?;
+    serde_json::to_string(&report).map_err(|e| errors::option(e.to_string()))
+}
+
+/// Rays (JSON text, as `camsim lens --trace` reads them) through a lens file to its paraxial
+/// image plane at `wavelength_nm`: the outcomes as JSON text.
+#[pyfunction]
+fn lens_trace(
+    path: std::path::PathBuf,
+    rays_json: &str,
+    wavelength_nm: f64,
+    pbrt_abbe: f64,
+) -> PyResult<String> {
+    let lens = camsim::lens::LensFile::read(&path, pbrt_abbe).map_err(errors::camsim)?;
+    let rays: Vec<camsim::lens::RayInput> =
+        serde_json::from_str(rays_json).map_err(|e| errors::option(format!("rays: {e}")))?;
+    let out = camsim::lens::trace_rays(&lens, &rays, wavelength_nm).map_err(errors::camsim)?;
+    serde_json::to_string(&out).map_err(|e| errors::option(e.to_string()))
+}
+
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(optics_apply, m)?)?;
+    m.add_function(wrap_pyfunction!(lens_report, m)?)?;
+    m.add_function(wrap_pyfunction!(lens_trace, m)?)?;
     Ok(())
 }

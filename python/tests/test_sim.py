@@ -3,6 +3,7 @@ the same seed, and optics-core's functions over arrays."""
 
 from __future__ import annotations
 
+import json
 import math
 import pathlib
 
@@ -12,7 +13,7 @@ import pytest
 import camsim
 from camsim import optics
 
-from conftest import run_cli
+from conftest import REPO, run_cli
 
 
 def test_render_and_capture_equal_the_demos(tmp_path: pathlib.Path) -> None:
@@ -89,3 +90,19 @@ def test_optics_over_arrays() -> None:
     np.testing.assert_allclose(optics.stops_between(2.8, 5.6), 2.0, rtol=1e-12)
     with pytest.raises(camsim.ProcessingError, match="element 1"):
         optics.f_number([50.0, -1.0], 2.0)
+
+
+def test_lenses_from_python_equal_the_command() -> None:
+    path = REPO / "camsim" / "lenses" / "tessar-f4.5.toml"
+    report = optics.lens(path, 486.1327)
+    assert report == json.loads(run_cli("lens", str(path), "--json", "--wavelength", "486.1327"))
+    assert report["f_number"] == pytest.approx(4.5, rel=2e-3)
+    rays = [
+        {"origin": [0.001, 0.0, -5.0], "direction": [0.0, 0.0, 1.0]},
+        {"origin": [25.0, 0.0, -5.0], "direction": [0.0, 0.0, 1.0]},
+    ]
+    out = optics.trace(path, rays)
+    assert abs(out[0]["image"][0]) < 1e-6
+    assert out[1]["lost_at_surface"] == 1 and out[1]["lost_because"] == "vignetted"
+    with pytest.raises(FileNotFoundError, match="nowhere.toml"):
+        optics.lens("nowhere.toml")
