@@ -587,11 +587,6 @@ pub fn trace_rays(
     };
     let p = lens.prescription()?;
     let bfl = p.paraxial(wavelength_nm).map_err(optics)?.bfl;
-    let mut surfaces = lens.surfaces.clone();
-    if let Some(last) = surfaces.last_mut() {
-        last.thickness = bfl.max(0.0);
-    }
-    let p = Prescription::new(&surfaces).map_err(optics)?;
     rays.iter()
         .enumerate()
         .map(|(k, r)| {
@@ -601,7 +596,7 @@ pub fn trace_rays(
                 wavelength_nm: r.wavelength_nm,
             };
             let traced = p
-                .trace(&ray)
+                .trace_to_plane(&ray, bfl)
                 .map_err(|source| Error::Message(format!("ray {}: {source}", k + 1)))?;
             Ok(match traced {
                 Traced::Image { point, direction } => RayOutcome {

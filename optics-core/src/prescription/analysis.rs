@@ -7,6 +7,7 @@
 //! entrance pupil's plane at `(px, py)` times its semi-diameter. The chief ray is `(0, 0)`.
 //! Every figure is taken on the paraxial focal plane at the reference wavelength.
 
+use super::paraxial::Pupil;
 use super::trace::{Ray, Traced};
 use super::Prescription;
 use crate::real::positive;
@@ -19,6 +20,19 @@ impl<T: Real> Prescription<'_, T> {
     /// The ray of field angle `field_rad` (0 to below pi/2) through the normalised entrance
     /// pupil point `(px, py)` at `wavelength_nm`, starting 1 mm before the first surface's rim.
     pub fn aimed_ray(&self, field_rad: T, pupil: [T; 2], wavelength_nm: T) -> Result<Ray<T>> {
+        let ep = self.paraxial(wavelength_nm)?.entrance_pupil;
+        self.aim_at(&ep, field_rad, pupil, wavelength_nm)
+    }
+
+    /// [`Self::aimed_ray`] with the entrance pupil already known (a pupil grid computes it
+    /// once, not per ray).
+    fn aim_at(
+        &self,
+        ep: &Pupil<T>,
+        field_rad: T,
+        pupil: [T; 2],
+        wavelength_nm: T,
+    ) -> Result<Ray<T>> {
         if !(field_rad >= T::zero() && field_rad < T::lit(1.5)) {
             return Err(OpticsError::InvalidParameter {
                 name: "field_rad",
@@ -31,7 +45,6 @@ impl<T: Real> Prescription<'_, T> {
                 allowed: "finite",
             });
         }
-        let p = self.paraxial(wavelength_nm)?;
         let first = &self.surfaces[0];
         let rim = first
             .shape
@@ -39,7 +52,6 @@ impl<T: Real> Prescription<'_, T> {
             .map_or(T::zero(), |(z, _)| z);
         let z0 = -(rim.abs() + T::one());
         let (sin, cos) = (field_rad.sin(), field_rad.cos());
-        let ep = p.entrance_pupil;
         let tan = sin / cos;
         Ok(Ray {
             origin: [
@@ -115,8 +127,9 @@ impl<T: Real> Prescription<'_, T> {
                 allowed: "2 to 257 rays a side",
             });
         }
-        let bfl = self.paraxial(wavelength_nm)?.bfl;
-        let chief = self.aimed_ray(field_rad, [T::zero(); 2], wavelength_nm)?;
+        let p = self.paraxial(wavelength_nm)?;
+        let (bfl, ep) = (p.bfl, p.entrance_pupil);
+        let chief = self.aim_at(&ep, field_rad, [T::zero(); 2], wavelength_nm)?;
         let (anchor, chief_angle) = match self.trace_to_plane(&chief, bfl)? {
             Traced::Image { point, direction } => (
                 [point[0], point[1]],
@@ -136,7 +149,7 @@ impl<T: Real> Prescription<'_, T> {
                     continue;
                 }
                 inside += 1;
-                let ray = self.aimed_ray(field_rad, [px, py], wavelength_nm)?;
+                let ray = self.aim_at(&ep, field_rad, [px, py], wavelength_nm)?;
                 if let Traced::Image { point, .. } = self.trace_to_plane(&ray, bfl)? {
                     arrived += 1;
                     let (dx, dy) = (point[0] - anchor[0], point[1] - anchor[1]);
