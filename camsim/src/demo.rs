@@ -114,6 +114,9 @@ pub struct DemoSettings {
     pub denoise: Option<f32>,
     /// Chroma noise reduction's strength; `None`: 1 where noise reduction is on, else 0.
     pub chroma_denoise: Option<f32>,
+    /// A lens file to render through instead of the scene's thin lens
+    /// ([`host_tracer::tracer::scene::CameraDesc::use_lens`]).
+    pub lens: Option<PathBuf>,
 }
 
 impl Default for DemoSettings {
@@ -138,6 +141,7 @@ impl Default for DemoSettings {
             awb: AwbMethod::WhitePatch { percentile: 99.0 },
             demosaic: develop::DEFAULT_METHOD,
             denoise: None,
+            lens: None,
             chroma_denoise: None,
         }
     }
@@ -179,6 +183,10 @@ pub struct DemoReport {
     pub spp: u32,
     /// Render time, s.
     pub render_s: f64,
+    /// The real lens rendered through (name and f-number), if any.
+    pub lens: Option<(String, f64)>,
+    /// The share of camera samples the lens stopped (vignetting).
+    pub vignetted_fraction: f64,
     /// Sensor simulation time, s.
     pub sensor_s: f64,
     /// Exposure time used, s.
@@ -472,6 +480,8 @@ pub struct Captured {
     pub spp: u32,
     /// Render time, s.
     pub render_s: f64,
+    /// The share of camera samples the lens stopped (vignetting; 0 for a thin lens).
+    pub vignetted_fraction: f64,
     /// Sensor simulation time, s.
     pub sensor_s: f64,
     /// The sensor's output.
@@ -648,7 +658,15 @@ pub fn capture(
     config.iso = args.iso;
     config.exposure_s = args.exposure;
     config.frame_seed = args.seed;
-    capture_scene(scene_file::load(&args.scene)?, args, &config, progress)
+    let mut scene = scene_file::load(&args.scene)?;
+    if let Some(path) = &args.lens {
+        let file = host_tracer::lens_file::LensFile::read(
+            path,
+            host_tracer::lens_file::DEFAULT_PBRT_ABBE,
+        )?;
+        scene.camera.use_lens(file)?;
+    }
+    capture_scene(scene, args, &config, progress)
 }
 
 /// [`capture`] of a scene already built, through the sensor `config` (whose camera, pattern,
@@ -850,6 +868,7 @@ pub fn capture_scene(
         spectral,
         spp: settings.spp,
         render_s: (image.elapsed + image.prepare).as_secs_f64(),
+        vignetted_fraction: image.lost_samples as f64 / image.samples.max(1) as f64,
         sensor_s,
         noisy: config.noise != sensor::NoiseConfig::default(),
         capture,
@@ -1017,6 +1036,16 @@ pub fn run(
         height: h,
         spp: captured.spp,
         render_s: captured.render_s,
+        lens: scene.camera.lens.as_ref().map(|l| {
+            (
+                l.file.name.clone(),
+                l.f_number.unwrap_or(
+                    f64::from(scene.camera.focal_length_mm)
+                        / (2.0 * f64::from(scene.camera.aperture_radius_mm)),
+                ),
+            )
+        }),
+        vignetted_fraction: captured.vignetted_fraction,
         sensor_s: captured.sensor_s,
         exposure_s: capture.exposure_s,
         iso: args.iso,
@@ -1087,6 +1116,12 @@ fn report_text(r: &DemoReport, total_s: f64, stages: &[&str], noise: &develop::N
         "  render            {:8.2} s\n  sensor            {:8.2} s (ISO {}, exposure {:.4} s, {metered})\n  ISP float / fixed {:8.1} / {:.1} ms\n",
         r.render_s, r.sensor_s, r.iso, r.exposure_s, r.isp_total_ms, r.isp_fixed_total_ms
     );
+    if let Some((name, n)) = &r.lens {
+        t += &format!(
+            "  lens              {name} at f/{n:.2}: {:.1} % of camera samples vignetted\n",
+            100.0 * r.vignetted_fraction
+        );
+    }
     t += &format!("  {}\n", noise.to_text());
     t += &format!("  ISP stages: {}\n", stages.join(" -> "));
     for (name, ms) in &r.isp_stage_ms {
@@ -1150,6 +1185,8 @@ mod tests {
             height: 2,
             spp: 1,
             render_s: 0.0,
+            lens: None,
+            vignetted_fraction: 0.0,
             sensor_s: 0.0,
             exposure_s: 0.0,
             iso: 100.0,

@@ -176,3 +176,49 @@ fn the_shipped_lenses_agree_with_optiland() {
     );
     assert!(text.contains("largest paraxial difference"), "{text}");
 }
+
+#[test]
+fn demo_and_render_go_through_a_lens_file() {
+    let out_dir = std::env::temp_dir().join(format!("camsim-lens-demo-{}", std::process::id()));
+    let dir = out_dir.to_string_lossy().into_owned();
+    let lens = lens_path("tessar-f4.5.toml");
+    let out = camsim(&[
+        "demo", "--lens", &lens, "--width", "96", "--height", "64", "--spp", "6", "--output",
+        &dir, "--json",
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["lens"][0], "Tessar f/4.5");
+    // The demo's f/1.4 is wider than the Tessar opens: it renders at the lens's widest.
+    assert!((v["lens"][1].as_f64().unwrap() - 4.5).abs() < 1e-6, "{}", v["lens"]);
+    let vignetted = v["vignetted_fraction"].as_f64().unwrap();
+    assert!(vignetted > 0.01 && vignetted < 0.9, "{vignetted}");
+    assert!(out_dir.join("srgb.png").exists());
+
+    // A scene file naming the lens; its path is relative to the scene's folder.
+    let scene = out_dir.join("scene.toml");
+    std::fs::copy(&lens, out_dir.join("tessar.toml")).unwrap();
+    let text = "[film]\nwidth = 32\nheight = 24\nspp = 4\n\n[camera]\nposition = [0.0, 0.0, 3.0]\n\
+                target = [0.0, 0.0, 0.0]\nlens = \"tessar.toml\"\nf_number = 8.0\n\n\
+                [environment]\nrgb = [1.0, 1.0, 1.0]\n";
+    std::fs::write(&scene, text).unwrap();
+    let preview = out_dir.join("p.png").to_string_lossy().into_owned();
+    let s = scene.to_string_lossy().into_owned();
+    let out = camsim(&["render", "--scene", &s, "--preview", &preview, "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["camera"], "lens Tessar f/4.5");
+    // A white sky through the lens: the centre of the frame reads about 1 (the thin lens's
+    // radiance), so the mean is a little under.
+    let mean = v["mean_rgb"][1].as_f64().unwrap();
+    assert!(mean > 0.8 && mean <= 1.02, "{mean}");
+    // A thin-lens setting beside the lens file is refused, naming it.
+    std::fs::write(&scene, text.replace("f_number = 8.0", "focal_length_mm = 50.0")).unwrap();
+    let out = camsim(&["render", "--scene", &s, "--preview", &preview]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("focal_length_mm"), "{err}");
+    let out = camsim(&["render", "--scene", &s.replace("scene", "nothing"), "--lens", &lens]);
+    assert!(!out.status.success());
+    std::fs::remove_dir_all(&out_dir).ok();
+}

@@ -86,6 +86,13 @@ pub enum Error {
     },
     /// The render's worker threads could not start.
     Threads(String),
+    /// A lens file is wrong.
+    Lens {
+        /// The file, when read from one.
+        file: Option<PathBuf>,
+        /// What is wrong (the surface and key, where it is one).
+        problem: String,
+    },
 }
 
 impl Error {
@@ -99,6 +106,30 @@ impl Error {
             field: field.into(),
             value: value.to_string(),
             allowed: allowed.into(),
+        }
+    }
+
+    /// A problem of a lens file.
+    pub fn lens(problem: impl Into<String>) -> Self {
+        Error::Lens {
+            file: None,
+            problem: problem.into(),
+        }
+    }
+
+    /// This error, said of the lens file `path` (a lens problem gets the file's name; others
+    /// are returned as they are).
+    pub fn in_lens_file(self, path: &std::path::Path) -> Self {
+        match self {
+            Error::Lens { problem, .. } => Error::Lens {
+                file: Some(path.to_owned()),
+                problem,
+            },
+            Error::Optics { source, .. } => Error::Lens {
+                file: Some(path.to_owned()),
+                problem: source.to_string(),
+            },
+            other => other,
         }
     }
 }
@@ -155,6 +186,14 @@ impl fmt::Display for Error {
             } => write!(f, "sensor {field}: expected {allowed}, got {value}"),
             Self::Sensor { problem } => write!(f, "sensor: {problem}"),
             Self::Threads(e) => write!(f, "cannot start render threads: {e}"),
+            Self::Lens {
+                file: Some(file),
+                problem,
+            } => write!(f, "{}: {problem}", file.display()),
+            Self::Lens {
+                file: None,
+                problem,
+            } => write!(f, "{problem}"),
         }
     }
 }

@@ -6,6 +6,7 @@
 //! Layers, each depending only on those before it:
 //! - [`spectra`] (the spectral tables and the renderer's band grid) and [`random`] (the PCG32
 //!   generator): shared by all that follows.
+//! - [`lens_file`]: lens prescriptions read from files, for cameras that name one.
 //! - [`tracer`]: scenes, BVH, path tracing; [`render_bench`] measures what its features cost.
 //! - [`sensor`]: radiance to a raw frame ([`raw_formats::RawImage`]); it knows nothing of the
 //!   tracer, only camera RGB radiance and a [`sensor::LensGeometry`].
@@ -18,6 +19,7 @@
 
 pub mod calibrate;
 mod error;
+pub mod lens_file;
 pub mod random;
 pub mod render_bench;
 pub mod sensor;

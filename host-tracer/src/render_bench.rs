@@ -11,7 +11,7 @@ use glam::Vec3;
 
 use crate::error::{Error, Result};
 use crate::tracer::render::{render, RenderSettings};
-use crate::tracer::scene::{ApertureDesc, Colour, SceneDesc};
+use crate::tracer::scene::{ApertureDesc, Colour, SceneDesc, SensorSize};
 
 /// Sizes and repeats of one benchmark run.
 #[derive(Debug, Clone, PartialEq)]
@@ -255,6 +255,158 @@ pub fn bench(
     Ok(rows)
 }
 
+/// One lens's figures beside a thin lens of the same focal length, f-number and framing
+/// (serialised as they are for `camsim bench render --lens ... --json`).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct LensRow {
+    /// The lens's name.
+    pub lens: String,
+    /// Its focal length, mm, and the f-number rendered at (its widest).
+    pub efl_mm: f64,
+    /// The f-number.
+    pub f_number: f64,
+    /// The half field of view framed (the lens file's `field_deg`, else the scene's), degrees.
+    pub half_field_deg: f64,
+    /// Camera samples per second (million) through the lens, best of the repeats.
+    pub lens_msamples_per_s: f64,
+    /// The same through the thin lens.
+    pub thin_msamples_per_s: f64,
+    /// Time per sample through the lens over the thin lens's.
+    pub relative_time: f64,
+    /// The share of camera samples the lens stopped (vignetting, and the exit pupil's bounds
+    /// being a rectangle round a round pupil).
+    pub vignetted_fraction: f64,
+    /// The render's noise: RMS difference of two seeds' images over `sqrt 2`, relative to the
+    /// mean, through the lens (in tone-mapped values `x / (1 + x)`, so the few pixels that see
+    /// a light do not decide it).
+    pub lens_noise: f64,
+    /// The same through the thin lens.
+    pub thin_noise: f64,
+    /// The lens's noise at the thin lens's render time, over the thin lens's: noise falls as
+    /// the square root of time, so this is `lens_noise / thin_noise * sqrt(relative_time)`.
+    pub noise_at_equal_time: f64,
+}
+
+/// Renders `scene` through each lens of `lenses` and through a thin lens of the same focal
+/// length, f-number (the lens's widest) and framing (the lens file's half field across the
+/// image diagonal, else the scene's), each twice (two seeds, for the noise) and `repeats`
+/// times (for the speed). `progress` hears each lens's name.
+pub fn bench_lenses(
+    scene: &SceneDesc,
+    lenses: &[crate::lens_file::LensFile],
+    settings: &BenchSettings,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Vec<LensRow>> {
+    if settings.repeats == 0 {
+        return Err(Error::out_of_range("--repeats", 0, "at least 1"));
+    }
+    let mut rows = Vec::new();
+    for file in lenses {
+        progress(&file.name);
+        let mut thin = scene.clone();
+        let diagonal_px = f64::from(settings.width).hypot(f64::from(settings.height));
+        let mut lensed = scene.clone();
+        let f_number = lensed.camera.use_lens(file.clone())?;
+        let efl = f64::from(lensed.camera.focal_length_mm);
+        let half_field_deg = match file.field_deg {
+            Some(f) => f,
+            None => {
+                let s = lensed.camera.sensor_mm(settings.width, settings.height);
+                (f64::from(s.length()) / 2.0 / efl).atan().to_degrees()
+            }
+        };
+        let width_mm =
+            2.0 * efl * half_field_deg.to_radians().tan() * f64::from(settings.width) / diagonal_px;
+        lensed.camera.sensor = SensorSize::WidthMm(width_mm as f32);
+        thin.camera.sensor = lensed.camera.sensor;
+        thin.camera.focal_length_mm = lensed.camera.focal_length_mm;
+        thin.camera.aperture_radius_mm = lensed.camera.aperture_radius_mm;
+        thin.camera.aperture = ApertureDesc::Disk;
+        thin.camera.chromatic_aberration = 0.0;
+        thin.camera.distortion = None;
+        let run = |desc: &SceneDesc| -> Result<(f64, f64, f64)> {
+            let mut rs = RenderSettings::for_scene(desc);
+            rs.width = settings.width;
+            rs.height = settings.height;
+            rs.spp = settings.spp;
+            rs.threads = settings.threads;
+            rs.seed = settings.seed;
+            let mut best = 0.0f64;
+            let mut first = None;
+            for _ in 0..settings.repeats {
+                let image = render(desc, &rs)?;
+                best = best.max(image.samples_per_second());
+                first.get_or_insert(image);
+            }
+            let a = first.ok_or_else(|| Error::out_of_range("--repeats", 0, "at least 1"))?;
+            rs.seed = settings.seed.wrapping_add(1);
+            let b = render(desc, &rs)?;
+            // In tone-mapped values (x / (1 + x)), so a few pixels that see the light do not
+            // decide the figure.
+            let tone = |v: f32| f64::from(v) / (1.0 + f64::from(v));
+            let mean = a.rgb.iter().map(|&v| tone(v)).sum::<f64>() / a.rgb.len() as f64;
+            let diff2 = a
+                .rgb
+                .iter()
+                .zip(&b.rgb)
+                .map(|(&x, &y)| (tone(x) - tone(y)).powi(2))
+                .sum::<f64>()
+                / a.rgb.len() as f64;
+            let noise = (diff2 / 2.0).sqrt() / mean.max(1e-12);
+            let lost = a.lost_samples as f64 / a.samples.max(1) as f64;
+            Ok((best, noise, lost))
+        };
+        let (thin_speed, thin_noise, _) = run(&thin)?;
+        let (lens_speed, lens_noise, lost) = run(&lensed)?;
+        let relative_time = thin_speed / lens_speed;
+        rows.push(LensRow {
+            lens: file.name.clone(),
+            efl_mm: efl,
+            f_number,
+            half_field_deg,
+            lens_msamples_per_s: lens_speed / 1e6,
+            thin_msamples_per_s: thin_speed / 1e6,
+            relative_time,
+            vignetted_fraction: lost,
+            lens_noise,
+            thin_noise,
+            noise_at_equal_time: lens_noise / thin_noise * relative_time.sqrt(),
+        });
+    }
+    Ok(rows)
+}
+
+/// The lens rows as a table.
+pub fn lens_table(rows: &[LensRow]) -> String {
+    let mut out = format!(
+        "{:<28} {:>8} {:>6} {:>6} {:>11} {:>11} {:>7} {:>10} {:>12}\n",
+        "lens (thin lens alike)",
+        "EFL mm",
+        "f/",
+        "field",
+        "lens Ms/s",
+        "thin Ms/s",
+        "time x",
+        "vignetted",
+        "noise equal t"
+    );
+    for r in rows {
+        out.push_str(&format!(
+            "{:<28} {:>8.2} {:>6.2} {:>6.1} {:>11.3} {:>11.3} {:>7.2} {:>9.1}% {:>12.2}\n",
+            r.lens,
+            r.efl_mm,
+            r.f_number,
+            r.half_field_deg,
+            r.lens_msamples_per_s,
+            r.thin_msamples_per_s,
+            r.relative_time,
+            100.0 * r.vignetted_fraction,
+            r.noise_at_equal_time
+        ));
+    }
+    out
+}
+
 /// The rows as a table.
 pub fn table(rows: &[FeatureRow], scene: &str, settings: &BenchSettings) -> String {
     let mut out = format!(
@@ -320,6 +472,37 @@ mod tests {
         }
         let text = table(&rows, "cornell-box", &settings);
         assert!(text.contains("everything") && text.contains("time x"));
+    }
+
+    #[test]
+    fn lenses_bench_beside_their_thin_lens() {
+        let scene = crate::tracer::scene_file::load("cornell-box").unwrap();
+        let settings = BenchSettings {
+            width: 24,
+            height: 24,
+            spp: 4,
+            seed: 0,
+            threads: 1,
+            repeats: 1,
+            aperture_radius: 0.1,
+        };
+        let tessar = crate::lens_file::LensFile::from_toml(include_str!(
+            "../../camsim/lenses/tessar-f4.5.toml"
+        ))
+        .unwrap();
+        let rows = bench_lenses(&scene, &[tessar], &settings, &mut |_| {}).unwrap();
+        let r = &rows[0];
+        assert!(
+            (r.efl_mm - 101.54).abs() < 0.01 && (r.f_number - 4.5).abs() < 0.01,
+            "{r:?}"
+        );
+        assert!(r.lens_msamples_per_s > 0.0 && r.thin_msamples_per_s > 0.0);
+        assert!(
+            r.vignetted_fraction > 0.0 && r.vignetted_fraction < 0.9,
+            "{r:?}"
+        );
+        assert!(r.lens_noise > 0.0 && r.thin_noise > 0.0 && r.noise_at_equal_time.is_finite());
+        assert!(lens_table(&rows).contains("Tessar"));
     }
 
     #[test]

@@ -2,7 +2,8 @@
 //! ([`geometry`], [`accel`]), a diffuse path tracer with next-event estimation and MIS
 //! ([`integrator`]) and the tiled, multi-threaded, seed-deterministic renderer ([`render`]).
 //! Cameras come from optics-core (thin lens or pinhole, shaped apertures, shutter and motion,
-//! chromatic aberration); Brown-Conrady distortion is applied to the raster.
+//! chromatic aberration; Brown-Conrady distortion is applied to the raster) or are a real lens's
+//! prescription traced at each path's wavelength ([`lens_camera`]).
 //!
 //! Colour is three linear RGB channels unless the scene has spectral data, in which case it is
 //! [`crate::spectra::BANDS`] bands of 10 nm ([`color`]): a scene pays only for what it uses.
@@ -21,6 +22,7 @@ pub mod accel;
 pub mod color;
 pub mod geometry;
 pub mod integrator;
+pub mod lens_camera;
 pub mod render;
 pub mod sampling;
 pub mod scene;

@@ -96,6 +96,9 @@ pub struct Rendered {
     pub prepare: Duration,
     /// Camera samples traced (`width * height * spp`).
     pub samples: u64,
+    /// Camera samples the lens stopped (a real lens's vignetting; a distorted raster's
+    /// pixels without a source).
+    pub lost_samples: u64,
 }
 
 impl Rendered {
@@ -163,19 +166,49 @@ fn render_tile<const N: usize>(
     settings: &RenderSettings,
     x0: u32,
     y0: u32,
-) -> Vec<Channels<N>> {
+) -> (Vec<Channels<N>>, u64) {
     let (w, h) = (settings.width, settings.height);
     let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
     let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
     let inv_spp = 1.0 / settings.spp as f32;
+    let mut lost = 0u64;
     for y in y0..y1 {
         for x in x0..x1 {
             let mut rng = Rng::new(settings.seed, y as u64 * w as u64 + x as u64);
             let mut sum = Channels::<N>::ZERO;
-            for _ in 0..settings.spp {
+            // With a real lens each sample carries one channel's wavelength; the channels
+            // take turns from a random start, so every pixel sees each equally often.
+            let first_channel = if rig.lens.is_some() {
+                (rng.next_f32() * N as f32) as usize % N
+            } else {
+                0
+            };
+            // Each channel's samples are averaged over their own count when every channel
+            // gets one (spp >= N), so a pixel's channels do not flicker with the share each
+            // got; below that, each sample stands for all N channels' share of the pixel.
+            let per_channel = rig.lens.is_some() && settings.spp as usize >= N;
+            let lens_scale = if per_channel { 1.0 } else { N as f32 };
+            for k in 0..settings.spp {
                 let jitter = rng.next_2d();
-                let Some(cs) = rig.sample(x as f32 + jitter.x, y as f32 + jitter.y, &mut rng)
-                else {
+                let (px, py) = (x as f32 + jitter.x, y as f32 + jitter.y);
+                let sample = match &rig.lens {
+                    Some(lens) => {
+                        let c = (first_channel + k as usize) % N;
+                        let pupil = rng.next_2d();
+                        let time = if rig.needs_time { rng.next_f32() } else { 0.0 };
+                        lens.sample(px, py, channel_wavelength_nm::<N>(c), pupil, time)
+                            .map(|cs| {
+                                let mut w = Channels::ZERO;
+                                w.0[c] = cs.throughput[0] * lens_scale;
+                                (cs, w)
+                            })
+                    }
+                    None => rig
+                        .sample(px, py, &mut rng)
+                        .map(|cs| (cs, camera_weight(cs.throughput))),
+                };
+                let Some((cs, weight)) = sample else {
+                    lost += 1;
                     continue;
                 };
                 let s = rig.shutter_fraction(cs.ray.time);
@@ -185,7 +218,7 @@ fn render_tile<const N: usize>(
                     cs.ray.origin,
                     cs.ray.direction,
                     s,
-                    camera_weight(cs.throughput),
+                    weight,
                     &mut rng,
                 );
                 // A NaN or infinity from a degenerate sample must not poison the pixel.
@@ -193,10 +226,32 @@ fn render_tile<const N: usize>(
                     sum += l;
                 }
             }
-            out.push(sum * inv_spp);
+            if per_channel {
+                let spp = settings.spp as usize;
+                for (c, v) in sum.0.iter_mut().enumerate() {
+                    // Samples channel c got: those k with (first + k) % N == c.
+                    let count = (spp + N - 1 - (c + N - first_channel) % N) / N;
+                    *v /= count.max(1) as f32;
+                }
+                out.push(sum);
+            } else {
+                out.push(sum * inv_spp);
+            }
         }
     }
-    out
+    (out, lost)
+}
+
+/// The wavelength a sample of channel `c` of `N` is traced through a real lens at: the band's
+/// centre for spectral renders; for RGB, the middle of the spectrum each channel stands for
+/// (the split of [`super::color::bands_from_rgb`]: blue below 490 nm, green to 590 nm, red
+/// above, over the 395..705 nm the bands cover).
+pub fn channel_wavelength_nm<const N: usize>(c: usize) -> f64 {
+    if N == 3 {
+        [647.5, 540.0, 442.5][c.min(2)]
+    } else {
+        crate::spectra::band_centre_nm(c)
+    }
 }
 
 fn render_channels<const N: usize>(
@@ -225,7 +280,7 @@ fn render_channels<const N: usize>(
     let done = AtomicUsize::new(0);
     let total = tiles.len();
     let begin = Instant::now();
-    let results: Vec<Vec<Channels<N>>> = pool.install(|| {
+    let results: Vec<(Vec<Channels<N>>, u64)> = pool.install(|| {
         tiles
             .par_iter()
             .map(|&(x0, y0)| {
@@ -238,7 +293,8 @@ fn render_channels<const N: usize>(
     });
     let elapsed = begin.elapsed();
     let mut data = vec![0.0f32; (w * h) as usize * N];
-    for (&(x0, y0), tile) in tiles.iter().zip(&results) {
+    let lost_samples = results.iter().map(|r| r.1).sum();
+    for (&(x0, y0), (tile, _)) in tiles.iter().zip(&results) {
         let tw = (x0 + TILE).min(w) - x0;
         for (k, c) in tile.iter().enumerate() {
             let (x, y) = (x0 + k as u32 % tw, y0 + k as u32 / tw);
@@ -260,5 +316,6 @@ fn render_channels<const N: usize>(
         elapsed,
         prepare,
         samples,
+        lost_samples,
     })
 }

@@ -11,7 +11,9 @@ use optics_core::distortion::BrownConrady;
 use super::accel::{Accel, Primitive};
 use super::color::{bands_from_rgb, Channels};
 use super::geometry::Shape;
+use super::lens_camera::{CameraLens, LensRig, LensSetup};
 use super::sampling::Rng;
+use crate::lens_file::LensFile;
 use crate::spectra::BANDS;
 
 /// A colour given in a scene: linear RGB, or a spectrum in [`BANDS`] bands.
@@ -129,6 +131,9 @@ pub struct CameraDesc {
     /// Brown-Conrady coefficients `[k1, k2, p1, p2, k3]` (OpenCV's order) the image is
     /// distorted by; `None`: no distortion.
     pub distortion: Option<[f64; 5]>,
+    /// A real lens instead of the thin lens (then `focal_length_mm` is its focal length and
+    /// `aperture_radius_mm` its entrance pupil's radius at the f-number used).
+    pub lens: Option<CameraLens>,
 }
 
 impl CameraDesc {
@@ -148,6 +153,7 @@ impl CameraDesc {
             end: None,
             chromatic_aberration: 0.0,
             distortion: None,
+            lens: None,
         }
     }
 
@@ -173,6 +179,30 @@ impl CameraDesc {
             self.aperture_radius_mm as f64,
             [sensor.x as f64, sensor.y as f64],
         )
+    }
+
+    /// Puts the real lens `file` on this camera in place of its thin lens: the focal length
+    /// becomes the lens's, the f-number stays (opened no wider than the lens's widest; a
+    /// pinhole gets the lens wide open), the sensor (a field of view stays a field of view), focus and shutter stay; the thin lens's
+    /// shaped aperture, chromatic-aberration heuristic and distortion go (the lens makes its
+    /// own). Returns the f-number used.
+    pub fn use_lens(&mut self, file: LensFile) -> crate::Result<f64> {
+        let mut lens = CameraLens {
+            file,
+            f_number: None,
+        };
+        let (efl, design_n) = lens.design()?;
+        let asked = (self.aperture_radius_mm > 0.0)
+            .then(|| f64::from(self.focal_length_mm) / (2.0 * f64::from(self.aperture_radius_mm)));
+        let n = asked.map_or(design_n, |n| n.max(design_n));
+        lens.f_number = Some(n);
+        self.focal_length_mm = efl as f32;
+        self.aperture_radius_mm = (efl / (2.0 * n)) as f32;
+        self.aperture = ApertureDesc::Disk;
+        self.chromatic_aberration = 0.0;
+        self.distortion = None;
+        self.lens = Some(lens);
+        Ok(n)
     }
 
     /// Focus distance in scene units.
@@ -319,6 +349,9 @@ pub struct CameraRig<'a> {
     pub needs_time: bool,
     shutter: (f32, f32),
     distortion: Option<(BrownConrady<f64>, f32)>,
+    /// The real lens, when the camera has one: [`CameraRig::sample`] is then not used, the
+    /// renderer draws a wavelength per sample and asks the lens.
+    pub lens: Option<LensRig>,
 }
 
 /// Storage a bitmap aperture's sampling table lives in while a camera uses it.
@@ -385,6 +418,22 @@ impl CameraDesc {
             .with_motion(motion)
             .with_world_units_per_mm(self.units_per_mm)
             .map_err(e("units per mm"))?;
+        let lens = match &self.lens {
+            Some(lens) => Some(LensRig::new(LensSetup {
+                lens,
+                sensor_mm: sensor,
+                size: (width, height),
+                focus_mm: f64::from(self.focus_distance() / self.units_per_mm),
+                units_per_mm: self.units_per_mm,
+                wavelengths_nm: [
+                    crate::spectra::band_centre_nm(0),
+                    crate::spectra::band_centre_nm(BANDS - 1),
+                ],
+                motion,
+                shutter,
+            })?),
+            None => None,
+        };
         let distortion = match self.distortion {
             Some(d) => {
                 let model = BrownConrady::from_opencv(d).map_err(e("distortion"))?;
@@ -400,6 +449,7 @@ impl CameraDesc {
             height,
             shutter: self.shutter,
             distortion,
+            lens,
         })
     }
 }

@@ -9,8 +9,10 @@ use serde::Deserialize;
 use toml::Spanned;
 
 use super::geometry::{cube, quad, Shape, Sphere, Triangle};
+use super::lens_camera::CameraLens;
 use super::scene::{ApertureDesc, CameraDesc, Colour, SceneDesc, SensorSize, ShapeDesc};
 use crate::error::{Error, Result};
+use crate::lens_file::{LensFile, DEFAULT_PBRT_ABBE};
 use crate::spectra::{bands_from_grid, bands_from_samples, xyz_weights};
 use crate::spectra::{Table, COLORCHECKER, ILLUMINANTS};
 
@@ -62,6 +64,7 @@ struct CameraSpec {
     end_target: Option<[f32; 3]>,
     chromatic_aberration: Option<f32>,
     distortion: Option<Vec<f64>>,
+    lens: Option<PathBuf>,
 }
 
 #[derive(Deserialize)]
@@ -544,7 +547,46 @@ fn camera(spanned: &Spanned<CameraSpec>, src: &Source<'_>, dir: &Path) -> Result
             v => Ok(v),
         }
     };
-    let focal_length_mm = positive(c.focal_length_mm, "focal_length_mm")?.unwrap_or(50.0);
+    let lens = match &c.lens {
+        None => None,
+        Some(path) => {
+            let refuse = |field: &str| {
+                Err(err(
+                    field,
+                    "a camera with a lens file takes its focal length, distortion and colour \
+                     from the lens: give f_number, not this"
+                        .into(),
+                ))
+            };
+            if c.focal_length_mm.is_some() {
+                return refuse("focal_length_mm");
+            }
+            if c.aperture_radius_mm.is_some() {
+                return refuse("aperture_radius_mm");
+            }
+            if c.distortion.is_some() {
+                return refuse("distortion");
+            }
+            if c.chromatic_aberration.is_some_and(|v| v != 0.0) {
+                return refuse("chromatic_aberration");
+            }
+            if c.aperture.as_ref().is_some_and(|a| a.shape != "disk") {
+                return refuse("aperture");
+            }
+            let file = LensFile::read(&dir.join(path), DEFAULT_PBRT_ABBE)
+                .map_err(|e| err("lens", e.to_string()))?;
+            let lens = CameraLens {
+                file,
+                f_number: positive(c.f_number, "f_number")?.map(f64::from),
+            };
+            let (efl, design_n) = lens.design().map_err(|e| err("lens", e.to_string()))?;
+            Some((lens, efl, design_n))
+        }
+    };
+    let focal_length_mm = match &lens {
+        Some((_, efl, _)) => *efl as f32,
+        None => positive(c.focal_length_mm, "focal_length_mm")?.unwrap_or(50.0),
+    };
     let sensor = match (c.fov_deg, positive(c.sensor_width_mm, "sensor_width_mm")?) {
         (Some(fov), None) if fov > 0.0 && fov < 180.0 => SensorSize::Fov(fov.to_radians()),
         (Some(fov), None) => {
@@ -559,6 +601,10 @@ fn camera(spanned: &Spanned<CameraSpec>, src: &Source<'_>, dir: &Path) -> Result
         }
     };
     let aperture_radius_mm = match (positive(c.f_number, "f_number")?, c.aperture_radius_mm) {
+        (n, _) if lens.is_some() => {
+            let design_n = lens.as_ref().map_or(1.0, |l| l.2) as f32;
+            focal_length_mm / (2.0 * n.unwrap_or(design_n))
+        }
         (Some(n), None) => focal_length_mm / (2.0 * n),
         (None, Some(r)) if r.is_finite() && r >= 0.0 => r,
         (None, Some(r)) => {
@@ -660,6 +706,7 @@ fn camera(spanned: &Spanned<CameraSpec>, src: &Source<'_>, dir: &Path) -> Result
         end,
         chromatic_aberration,
         distortion,
+        lens: lens.map(|l| l.0),
     })
 }
 

@@ -83,6 +83,26 @@ impl<T: Real> Shape<T> {
         }
     }
 
+    /// The same surface seen from the other side (light travelling towards `-z`): every sag
+    /// negated.
+    pub fn reversed(&self) -> Self {
+        match *self {
+            Shape::Flat => Shape::Flat,
+            Shape::Sphere { curvature } => Shape::Sphere {
+                curvature: -curvature,
+            },
+            Shape::EvenAsphere {
+                curvature,
+                conic,
+                coefficients,
+            } => Shape::EvenAsphere {
+                curvature: -curvature,
+                conic,
+                coefficients: coefficients.map(|a| -a),
+            },
+        }
+    }
+
     fn conic_and_terms(&self) -> (T, T, [T; ASPHERE_TERMS]) {
         match *self {
             Shape::Flat => (T::zero(), T::zero(), [T::zero(); ASPHERE_TERMS]),
@@ -267,5 +287,53 @@ impl<'a, T: Real> Prescription<'a, T> {
     /// The distance from the first vertex to the image plane, mm.
     pub fn total_length(&self) -> T {
         self.vertex_z(self.surfaces.len())
+    }
+
+    /// The lens turned round, written into `out` (as long as the lens): its last surface
+    /// first, for tracing from the image side towards the object, as a camera traces from the
+    /// film. Coordinates map by `z' = L - z` with `L` the last vertex's `z`, so the turned
+    /// lens's first vertex is the last one here; its last thickness is 0 (its image plane is
+    /// this lens's first vertex). Media, stop and clear apertures go with their surfaces.
+    ///
+    /// ```
+    /// use optics_core::prescription::{glass::Medium, Prescription, Shape, Surface};
+    /// let s = [
+    ///     Surface::new(Shape::sphere_radius(40.0_f64), 8.0, 4.0, Medium::Constant { n: 1.5 }).stop(),
+    ///     Surface::new(Shape::sphere_radius(-90.0), 8.0, 60.0, Medium::Air),
+    /// ];
+    /// let lens = Prescription::new(&s).unwrap();
+    /// let mut storage = s;
+    /// let back = lens.reversed_into(&mut storage).unwrap();
+    /// // Focal length does not depend on the direction light goes through a lens in air.
+    /// let (f, g) = (lens.paraxial(550.0).unwrap().efl, back.paraxial(550.0).unwrap().efl);
+    /// assert!((f - g).abs() < 1e-9);
+    /// ```
+    pub fn reversed_into<'b>(&self, out: &'b mut [Surface<T>]) -> Result<Prescription<'b, T>> {
+        let k = self.surfaces.len();
+        if out.len() != k {
+            return Err(OpticsError::InvalidParameter {
+                name: "reversed lens storage",
+                allowed: "as many surfaces as the lens",
+            });
+        }
+        for (j, slot) in out.iter_mut().enumerate() {
+            let i = k - 1 - j;
+            let s = &self.surfaces[i];
+            let (thickness, medium) = match i.checked_sub(1) {
+                Some(before) => (
+                    self.surfaces[before].thickness,
+                    self.surfaces[before].medium,
+                ),
+                None => (T::zero(), Medium::Air),
+            };
+            *slot = Surface {
+                shape: s.shape.reversed(),
+                semi_diameter: s.semi_diameter,
+                thickness,
+                medium,
+                is_stop: s.is_stop,
+            };
+        }
+        Prescription::new(out)
     }
 }

@@ -184,7 +184,13 @@ pub struct BenchRenderArgs {
         allow_hyphen_values = true
     )]
     aperture_radius: f32,
-    /// Print a JSON list of {variant, what, msamples_per_s, relative_time, mean_rgb}.
+    /// Also render through this lens file beside a thin lens of its focal length, f-number
+    /// and framing (repeatable): samples per second, the share vignetted and the noise at
+    /// equal time.
+    #[arg(long, value_name = "FILE")]
+    lens: Vec<PathBuf>,
+    /// Print a JSON list of {variant, what, msamples_per_s, relative_time, mean_rgb} (with
+    /// --lens: an object {features, lenses}).
     #[arg(long)]
     json: bool,
 }
@@ -659,13 +665,32 @@ fn bench_render(args: &BenchRenderArgs) -> Result<String, Error> {
         repeats: args.repeats,
         aperture_radius: args.aperture_radius,
     };
+    let lenses = args
+        .lens
+        .iter()
+        .map(|p| {
+            host_tracer::lens_file::LensFile::read(p, host_tracer::lens_file::DEFAULT_PBRT_ABBE)
+        })
+        .collect::<Result<Vec<_>, _>>()?;
     let mut progress = Progress::new("bench render");
     let rows = bench(&scene, &settings, &mut |what| progress.step(what))?;
+    let lens_rows =
+        host_tracer::render_bench::bench_lenses(&scene, &lenses, &settings, &mut |what| {
+            progress.step(what)
+        })?;
     progress.finish();
     if args.json {
-        return json(&rows);
+        if lenses.is_empty() {
+            return json(&rows);
+        }
+        return json(&serde_json::json!({ "features": rows, "lenses": lens_rows }));
     }
-    Ok(table(&rows, &scene.name, &settings))
+    let mut out = table(&rows, &scene.name, &settings);
+    if !lens_rows.is_empty() {
+        out.push('\n');
+        out.push_str(&host_tracer::render_bench::lens_table(&lens_rows));
+    }
+    Ok(out)
 }
 
 fn bench_demosaic(args: &BenchDemosaicArgs) -> Result<String, Error> {

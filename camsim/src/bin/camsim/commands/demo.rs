@@ -79,6 +79,12 @@ pub struct DemoArgs {
     /// on, else 0].
     #[arg(long)]
     pub chroma_denoise: Option<f32>,
+    /// Render through this lens file (TOML or pbrt .dat, see `camsim lens`) instead of the
+    /// scene's thin lens: its focal length, the scene's f-number (no wider than the lens's),
+    /// sensor and focus; each sample is traced at one wavelength, so the lens's dispersion
+    /// shows.
+    #[arg(long, value_name = "FILE")]
+    pub lens: Option<PathBuf>,
     /// Print the JSON report instead of the readable one.
     #[arg(long)]
     pub json: bool,
@@ -112,6 +118,7 @@ impl DemoArgs {
             demosaic: self.demosaic.into(),
             denoise: self.denoise,
             chroma_denoise: self.chroma_denoise,
+            lens: self.lens.clone(),
         }
     }
 }

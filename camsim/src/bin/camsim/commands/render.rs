@@ -40,6 +40,11 @@ pub struct RenderArgs {
     /// Aperture radius in scene units (as Mitsuba's thinlens); implies --camera thinlens.
     #[arg(long, value_name = "R", allow_hyphen_values = true)]
     pub aperture_radius: Option<f32>,
+    /// Render through this lens file (TOML or pbrt .dat, see `camsim lens`) instead of the
+    /// scene's thin lens: its focal length, the scene's f-number (no wider than the lens's
+    /// widest), sensor and focus; each sample is traced at one wavelength.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["camera", "aperture_radius"])]
+    pub lens: Option<std::path::PathBuf>,
     /// Focus distance in scene units (default: the scene's, else the distance to the target).
     #[arg(long, value_name = "D", allow_hyphen_values = true)]
     pub focus_distance: Option<f32>,
@@ -71,6 +76,20 @@ fn positive(v: Option<f32>, what: &'static str) -> Result<Option<f32>, Error> {
 
 /// Applies the command line's overrides to the scene's camera and film.
 pub fn settings(args: &RenderArgs, scene: &mut SceneDesc) -> Result<RenderSettings, Error> {
+    if let Some(path) = &args.lens {
+        let file = host_tracer::lens_file::LensFile::read(
+            path,
+            host_tracer::lens_file::DEFAULT_PBRT_ABBE,
+        )?;
+        scene.camera.use_lens(file)?;
+    }
+    if scene.camera.lens.is_some() && (args.camera.is_some() || args.aperture_radius.is_some()) {
+        return Err(Error::Message(
+            "the camera has a lens file: its aperture is the lens's stop (set the scene's \
+             f_number), not --camera or --aperture-radius"
+                .into(),
+        ));
+    }
     let cam = &mut scene.camera;
     let radius = positive(args.aperture_radius, "--aperture-radius")?;
     let focus = positive(args.focus_distance, "--focus-distance")?;
@@ -208,10 +227,12 @@ pub fn run(args: &RenderArgs) -> Result<String, Error> {
     } else {
         "rgb"
     };
-    let camera = if scene.camera.aperture_radius_mm > 0.0 {
-        "thinlens"
+    let camera = if let Some(lens) = &scene.camera.lens {
+        format!("lens {}", lens.file.name)
+    } else if scene.camera.aperture_radius_mm > 0.0 {
+        "thinlens".into()
     } else {
-        "pinhole"
+        "pinhole".into()
     };
     if args.json {
         let report = RenderReport {
@@ -222,7 +243,7 @@ pub fn run(args: &RenderArgs) -> Result<String, Error> {
             max_depth: settings.path.max_depth,
             seed: settings.seed,
             threads: rayon_threads(settings.threads),
-            camera,
+            camera: &camera,
             mode,
             render_s: image.elapsed.as_secs_f64(),
             prepare_s: image.prepare.as_secs_f64(),
@@ -235,7 +256,8 @@ pub fn run(args: &RenderArgs) -> Result<String, Error> {
     }
     Ok(format!(
         "scene {} ({mode}, {camera}): {} x {} at {} spp, max depth {}, seed {}\n\
-         rendered in {:.2} s on {} threads ({:.2} Msamples/s; BVH and tables {:.1} ms)\n\
+         rendered in {:.2} s on {} threads ({:.2} Msamples/s; BVH, tables and lens {:.1} ms; \
+         {:.1} % of samples vignetted)\n\
          mean linear RGB {:.5} {:.5} {:.5}\n",
         scene.name,
         image.width,
@@ -247,6 +269,7 @@ pub fn run(args: &RenderArgs) -> Result<String, Error> {
         rayon_threads(settings.threads),
         image.samples_per_second() / 1e6,
         image.prepare.as_secs_f64() * 1e3,
+        100.0 * image.lost_samples as f64 / image.samples.max(1) as f64,
         mean[0],
         mean[1],
         mean[2]
