@@ -183,14 +183,22 @@ fn demo_and_render_go_through_a_lens_file() {
     let dir = out_dir.to_string_lossy().into_owned();
     let lens = lens_path("tessar-f4.5.toml");
     let out = camsim(&[
-        "demo", "--lens", &lens, "--width", "96", "--height", "64", "--spp", "6", "--output",
-        &dir, "--json",
+        "demo", "--lens", &lens, "--width", "96", "--height", "64", "--spp", "6", "--output", &dir,
+        "--json",
     ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let v: Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["lens"][0], "Tessar f/4.5");
     // The demo's f/1.4 is wider than the Tessar opens: it renders at the lens's widest.
-    assert!((v["lens"][1].as_f64().unwrap() - 4.5).abs() < 1e-6, "{}", v["lens"]);
+    assert!(
+        (v["lens"][1].as_f64().unwrap() - 4.5).abs() < 1e-6,
+        "{}",
+        v["lens"]
+    );
     let vignetted = v["vignetted_fraction"].as_f64().unwrap();
     assert!(vignetted > 0.01 && vignetted < 0.9, "{vignetted}");
     assert!(out_dir.join("srgb.png").exists());
@@ -205,7 +213,11 @@ fn demo_and_render_go_through_a_lens_file() {
     let preview = out_dir.join("p.png").to_string_lossy().into_owned();
     let s = scene.to_string_lossy().into_owned();
     let out = camsim(&["render", "--scene", &s, "--preview", &preview, "--json"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let v: Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["camera"], "lens Tessar f/4.5");
     // A white sky through the lens: the centre of the frame reads about 1 (the thin lens's
@@ -213,12 +225,22 @@ fn demo_and_render_go_through_a_lens_file() {
     let mean = v["mean_rgb"][1].as_f64().unwrap();
     assert!(mean > 0.8 && mean <= 1.02, "{mean}");
     // A thin-lens setting beside the lens file is refused, naming it.
-    std::fs::write(&scene, text.replace("f_number = 8.0", "focal_length_mm = 50.0")).unwrap();
+    std::fs::write(
+        &scene,
+        text.replace("f_number = 8.0", "focal_length_mm = 50.0"),
+    )
+    .unwrap();
     let out = camsim(&["render", "--scene", &s, "--preview", &preview]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("focal_length_mm"), "{err}");
-    let out = camsim(&["render", "--scene", &s.replace("scene", "nothing"), "--lens", &lens]);
+    let out = camsim(&[
+        "render",
+        "--scene",
+        &s.replace("scene", "nothing"),
+        "--lens",
+        &lens,
+    ]);
     assert!(!out.status.success());
     std::fs::remove_dir_all(&out_dir).ok();
 }

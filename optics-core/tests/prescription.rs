@@ -546,3 +546,80 @@ fn a_perfect_surface_has_a_zero_spot() {
     let spot = lens.rms_spot(0.0, 550.0, 65).unwrap().unwrap();
     assert!(spot < 1e-12, "{spot}");
 }
+
+/// Laikin's Tessar as `camsim/lenses/tessar-f4.5.toml` holds it.
+fn tessar() -> Vec<Surface<f64>> {
+    let s =
+        |r: f64, t: f64, sd: f64, m: Medium<f64>| Surface::new(Shape::sphere_radius(r), sd, t, m);
+    vec![
+        s(33.85566, 7.08914, 16.36, glass("N-SK15")),
+        s(-253.37516, 5.21716, 15.2, Medium::Air),
+        s(-53.12918, 2.286, 10.71, glass("F2")),
+        s(30.79242, 1.80086, 9.51, Medium::Air),
+        Surface::aperture_stop(9.079866538191485, 3.89636),
+        s(-191.0207, 2.286, 10.94, glass("K10")),
+        s(33.0454, 8.60806, 13.0, glass("N-SK15")),
+        s(-38.65372, 86.4235, 14.12, Medium::Air),
+    ]
+}
+
+#[test]
+fn corrections_derived_from_a_prescription_reproduce_it() {
+    let surfaces = tessar();
+    let lens = Prescription::new(&surfaces).unwrap();
+    let d = LAMBDA_D_NM;
+    let max = 20.5f64.to_radians();
+    let efl = lens.paraxial(d).unwrap().efl;
+    // The fitted Brown-Conrady model puts every chief ray within 0.2 um of where it lands.
+    let [k1, k2, k3] = lens.fit_brown_conrady(max, d).unwrap();
+    for i in 1..=40 {
+        let field = max * i as f64 / 40.0;
+        let h = lens.chief_height(field, d, d).unwrap().unwrap();
+        let x = field.tan();
+        let x2 = x * x;
+        let model = efl * x * (1.0 + k1 * x2 + k2 * x2 * x2 + k3 * x2 * x2 * x2);
+        assert!((model - h).abs() < 2e-4, "{field}: {model} against {h}");
+    }
+    // Field from height inverts the chief ray's height.
+    let field = lens.field_at_height(20.0, d, d, max).unwrap().unwrap();
+    assert!((lens.chief_height(field, d, d).unwrap().unwrap() - 20.0).abs() < 1e-9);
+    assert_eq!(lens.field_at_height(60.0, d, d, max).unwrap(), None);
+    // Lateral-colour scales: 1 at the reference; their difference times the height is the
+    // lateral colour between the two wavelengths.
+    let at = |nm: f64, h: f64| {
+        lens.lateral_colour_scale(h, nm, d, d, max)
+            .unwrap()
+            .unwrap()
+    };
+    assert!((at(d, 15.0) - 1.0).abs() < 1e-12);
+    let field = lens.field_at_height(15.0, d, d, max).unwrap().unwrap();
+    let lc = lens
+        .lateral_colour(field, LAMBDA_F_NM, LAMBDA_C_NM, d)
+        .unwrap()
+        .unwrap();
+    let scaled = (at(LAMBDA_F_NM, 15.0) - at(LAMBDA_C_NM, 15.0)) * 15.0;
+    assert!((scaled - lc).abs() < 1e-9, "{scaled} against {lc}");
+    assert!(at(LAMBDA_F_NM, 0.0).is_finite());
+    // Relative illumination from the film side: 1 on the axis, falling towards the corner,
+    // near the entrance-pupil estimate of `analysis` (an approximation of the same thing).
+    let mut scratch = surfaces.clone();
+    let bfl = lens.paraxial(d).unwrap().bfl;
+    let mut ri = |h: f64| {
+        lens.illumination_at_height(h, bfl, d, 96, &mut scratch)
+            .unwrap()
+            .unwrap()
+    };
+    assert!((ri(0.0) - 1.0).abs() < 1e-12);
+    let (mid, corner) = (ri(10.0), ri(21.6));
+    assert!(corner < mid && mid < 1.0, "{mid} {corner}");
+    let field = lens.field_at_height(21.6, d, d, max).unwrap().unwrap();
+    let estimate = lens.relative_illumination(field, d, 64).unwrap().unwrap();
+    assert!(
+        (corner - estimate).abs() < 0.04,
+        "{corner} against {estimate}"
+    );
+    let mut short = [surfaces[0]];
+    assert!(lens
+        .illumination_at_height(1.0, bfl, d, 16, &mut short)
+        .is_err());
+}

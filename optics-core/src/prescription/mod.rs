@@ -31,6 +31,7 @@
 
 pub mod analysis;
 pub mod catalogue;
+pub mod correction;
 pub mod glass;
 pub mod paraxial;
 pub mod trace;

@@ -108,7 +108,23 @@ fn prescription_runs() -> bool {
         return false;
     };
     let crossing = point[2] - point[0] * direction[2] / direction[0] - 5.0;
-    p.efl > 48.0 && p.efl < 50.0 && crossing < p.bfl && crossing > p.bfl - 2.0
+    // The ISP's corrections derived from it: a little barrel distortion (k1 about -0.065)
+    // and corners a little darker than the centre (about 0.98 at 5 mm).
+    let Ok([k1, _, _]) = lens.fit_brown_conrady(0.2, 587.5618) else {
+        return false;
+    };
+    let mut scratch = surfaces;
+    let Ok(Some(ri)) = lens.illumination_at_height(5.0, p.bfl, 587.5618, 16, &mut scratch) else {
+        return false;
+    };
+    p.efl > 48.0
+        && p.efl < 50.0
+        && crossing < p.bfl
+        && crossing > p.bfl - 2.0
+        && k1 < -0.01
+        && k1 > -0.2
+        && ri > 0.5
+        && ri < 1.0
 }
 
 /// The directional demosaic, float and integer, on a flat 8x8 mosaic in stack buffers: the

@@ -1,0 +1,254 @@
+//! What an ISP needs to undo a lens, derived from its prescription (no heap; runs on the
+//! firmware targets at start-up):
+//!
+//! - [`Prescription::fit_brown_conrady`]: distortion as OpenCV's radial coefficients
+//!   `k1, k2, k3`, least squares over the field, for isp-core's distortion mesh. With the
+//!   camera matrix's focal length `efl / pixel pitch`, the normalised ideal point is
+//!   `x = tan(field)` and the lens puts it at `x_d = h(field) / efl`, `h` the chief ray's
+//!   height on the focal plane.
+//! - [`Prescription::lateral_colour_scale`]: how much larger a colour's image is than the
+//!   reference colour's at an image radius, `h_c / h_ref` along one chief ray: the factor a
+//!   lateral-colour stage reads that colour's plane at.
+//! - [`Prescription::illumination_at_height`]: relative illumination at an image radius, the
+//!   projected solid angle of the light that reaches that film point (traced from the film
+//!   through the lens turned round, over a grid on the rear element), against the centre's:
+//!   the same quantity the renderer's lens camera weights its samples by, so a shading grid
+//!   made from it flattens a render through the lens.
+//!
+//! All are on the plane a camera's film sits on: the paraxial focal plane at `reference_nm`.
+
+use super::trace::{Ray, Traced};
+use super::{Prescription, Surface};
+use crate::{OpticsError, Real, Result};
+
+/// Chief rays the distortion fit samples over the field.
+pub const FIT_SAMPLES: usize = 64;
+
+impl<T: Real> Prescription<'_, T> {
+    /// The field angle (radians, in `[0, max_field_rad]`) whose chief ray at `wavelength_nm`
+    /// meets the paraxial focal plane at `reference_nm` at height `height_mm`, by bisection
+    /// (the height must rise with the field, as it does in a camera lens); `None` when the
+    /// height is beyond the field's or a chief ray on the way is lost.
+    pub fn field_at_height(
+        &self,
+        height_mm: T,
+        wavelength_nm: T,
+        reference_nm: T,
+        max_field_rad: T,
+    ) -> Result<Option<T>> {
+        if !(height_mm.is_finite() && height_mm >= T::zero()) {
+            return Err(OpticsError::InvalidParameter {
+                name: "height_mm",
+                allowed: "finite and >= 0",
+            });
+        }
+        if !(max_field_rad > T::zero() && max_field_rad < T::lit(1.5)) {
+            return Err(OpticsError::InvalidParameter {
+                name: "max_field_rad",
+                allowed: "above 0 and below 1.5 radians",
+            });
+        }
+        if height_mm == T::zero() {
+            return Ok(Some(T::zero()));
+        }
+        let Some(top) = self.chief_height(max_field_rad, wavelength_nm, reference_nm)? else {
+            return Ok(None);
+        };
+        if top < height_mm {
+            return Ok(None);
+        }
+        let (mut lo, mut hi) = (T::zero(), max_field_rad);
+        for _ in 0..60 {
+            let mid = (lo + hi) * T::lit(0.5);
+            match self.chief_height(mid, wavelength_nm, reference_nm)? {
+                Some(h) if h < height_mm => lo = mid,
+                Some(_) => hi = mid,
+                None => return Ok(None),
+            }
+        }
+        Ok(Some((lo + hi) * T::lit(0.5)))
+    }
+
+    /// OpenCV's radial distortion coefficients `[k1, k2, k3]` fitted (least squares, on
+    /// [`FIT_SAMPLES`] chief rays evenly spread in field up to `max_field_rad`) to the lens at
+    /// `wavelength_nm`: `h / (efl tan(field)) = 1 + k1 x^2 + k2 x^4 + k3 x^6`, `x = tan(field)`.
+    /// The tangential terms are 0 for a centred lens.
+    pub fn fit_brown_conrady(&self, max_field_rad: T, wavelength_nm: T) -> Result<[T; 3]> {
+        if !(max_field_rad > T::zero() && max_field_rad < T::lit(1.5)) {
+            return Err(OpticsError::InvalidParameter {
+                name: "max_field_rad",
+                allowed: "above 0 and below 1.5 radians",
+            });
+        }
+        let efl = self.paraxial(wavelength_nm)?.efl;
+        // Normal equations of the 3-term fit, accumulated without storing the samples.
+        let mut a = [[T::zero(); 3]; 3];
+        let mut b = [T::zero(); 3];
+        let mut used = 0;
+        for i in 1..=FIT_SAMPLES {
+            let field = max_field_rad * T::lit(i as f64 / FIT_SAMPLES as f64);
+            let Some(h) = self.chief_height(field, wavelength_nm, wavelength_nm)? else {
+                continue;
+            };
+            let x = field.tan();
+            let x2 = x * x;
+            let basis = [x2, x2 * x2, x2 * x2 * x2];
+            let y = h / (efl * x) - T::one();
+            for r in 0..3 {
+                for c in 0..3 {
+                    a[r][c] = a[r][c] + basis[r] * basis[c];
+                }
+                b[r] = b[r] + basis[r] * y;
+            }
+            used += 1;
+        }
+        if used < 3 {
+            return Err(OpticsError::InvalidParameter {
+                name: "max_field_rad",
+                allowed: "a field the lens passes chief rays over",
+            });
+        }
+        solve3(a, b).ok_or(OpticsError::InvalidParameter {
+            name: "max_field_rad",
+            allowed: "a field wide enough to fit three coefficients",
+        })
+    }
+
+    /// The factor by which the image at `wavelength_nm` is larger than at `reference_nm` at
+    /// image radius `height_mm` (of the reference colour), on the paraxial focal plane at
+    /// `focal_plane_nm`: `h(field, wavelength) / h(field, reference)` for the field whose
+    /// reference chief ray lands at `height_mm`. At the axis, the limit (the ratio of the
+    /// paraxial image heights, taken at a small field). `None` beyond the field the lens
+    /// passes.
+    pub fn lateral_colour_scale(
+        &self,
+        height_mm: T,
+        wavelength_nm: T,
+        reference_nm: T,
+        focal_plane_nm: T,
+        max_field_rad: T,
+    ) -> Result<Option<T>> {
+        let small = max_field_rad * T::lit(1e-3);
+        let field =
+            match self.field_at_height(height_mm, reference_nm, focal_plane_nm, max_field_rad)? {
+                Some(f) if f > small => f,
+                Some(_) => small,
+                None => return Ok(None),
+            };
+        let reference = self.chief_height(field, reference_nm, focal_plane_nm)?;
+        let colour = self.chief_height(field, wavelength_nm, focal_plane_nm)?;
+        Ok(match (colour, reference) {
+            (Some(c), Some(r)) if r > T::zero() => Some(c / r),
+            _ => None,
+        })
+    }
+
+    /// Relative illumination at image radius `height_mm` on the plane `image_distance_mm`
+    /// behind the last vertex, at `wavelength_nm`, against the axis: the projected solid angle
+    /// (`sum of cos^4 / d^2` over an `n x n` grid on the rear element's clear aperture) of the
+    /// rays from that film point that pass the lens. `scratch` holds the lens turned round (as
+    /// many surfaces as the lens). `None` when no ray from the axis passes.
+    pub fn illumination_at_height(
+        &self,
+        height_mm: T,
+        image_distance_mm: T,
+        wavelength_nm: T,
+        n: usize,
+        scratch: &mut [Surface<T>],
+    ) -> Result<Option<T>> {
+        if !(2..=super::analysis::MAX_GRID).contains(&n) {
+            return Err(OpticsError::InvalidParameter {
+                name: "n",
+                allowed: "2..=257",
+            });
+        }
+        if !(height_mm.is_finite() && height_mm >= T::zero()) {
+            return Err(OpticsError::InvalidParameter {
+                name: "height_mm",
+                allowed: "finite and >= 0",
+            });
+        }
+        if !(image_distance_mm.is_finite() && image_distance_mm > T::zero()) {
+            return Err(OpticsError::InvalidParameter {
+                name: "image_distance_mm",
+                allowed: "finite and > 0",
+            });
+        }
+        let back = self.reversed_into(scratch)?;
+        let axis = projected_solid_angle(&back, T::zero(), image_distance_mm, wavelength_nm, n)?;
+        if axis <= T::zero() {
+            return Ok(None);
+        }
+        let here = projected_solid_angle(&back, height_mm, image_distance_mm, wavelength_nm, n)?;
+        Ok(Some(here / axis))
+    }
+}
+
+/// `sum cos^4 / d^2 * cell` over the rays from film point `(h, 0)` at distance `d` before the
+/// turned lens's first vertex towards an `n x n` grid on its clear aperture that pass.
+fn projected_solid_angle<T: Real>(
+    back: &Prescription<'_, T>,
+    h: T,
+    d: T,
+    wavelength_nm: T,
+    n: usize,
+) -> Result<T> {
+    let r = back.surfaces()[0].semi_diameter;
+    let cell = T::lit(2.0) * r / T::lit(n as f64);
+    let mut sum = T::zero();
+    for gy in 0..n {
+        for gx in 0..n {
+            let px = -r + (T::lit(gx as f64) + T::lit(0.5)) * cell;
+            let py = -r + (T::lit(gy as f64) + T::lit(0.5)) * cell;
+            if px * px + py * py > r * r {
+                continue;
+            }
+            let (dx, dy) = (px - h, py);
+            let ray = Ray {
+                origin: [h, T::zero(), -d],
+                direction: [dx, dy, d],
+                wavelength_nm,
+            };
+            if let Traced::Image { .. } = back.trace(&ray)? {
+                let cos2 = d * d / (dx * dx + dy * dy + d * d);
+                sum = sum + cos2 * cos2 / (d * d);
+            }
+        }
+    }
+    Ok(sum * cell * cell)
+}
+
+/// Solves the 3x3 system `a x = b` by Gaussian elimination with partial pivoting; `None` when
+/// it is singular.
+fn solve3<T: Real>(mut a: [[T; 3]; 3], mut b: [T; 3]) -> Option<[T; 3]> {
+    for col in 0..3 {
+        let mut pivot = col;
+        for row in col + 1..3 {
+            if a[row][col].abs() > a[pivot][col].abs() {
+                pivot = row;
+            }
+        }
+        if a[pivot][col].abs() <= T::min_positive_value() {
+            return None;
+        }
+        a.swap(col, pivot);
+        b.swap(col, pivot);
+        let (pivot_row, pivot_b) = (a[col], b[col]);
+        for (row, rhs) in a.iter_mut().zip(b.iter_mut()).skip(col + 1) {
+            let f = row[col] / pivot_row[col];
+            for (v, p) in row.iter_mut().zip(pivot_row).skip(col) {
+                *v = *v - f * p;
+            }
+            *rhs = *rhs - f * pivot_b;
+        }
+    }
+    let mut x = [T::zero(); 3];
+    for row in (0..3).rev() {
+        let mut s = b[row];
+        for c in row + 1..3 {
+            s = s - a[row][c] * x[c];
+        }
+        x[row] = s / a[row][row];
+    }
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}
