@@ -379,7 +379,7 @@ pub fn bench_lenses(
 /// The lens rows as a table.
 pub fn lens_table(rows: &[LensRow]) -> String {
     let mut out = format!(
-        "{:<28} {:>8} {:>6} {:>6} {:>11} {:>11} {:>7} {:>10} {:>12}\n",
+        "{:<38} {:>8} {:>6} {:>6} {:>11} {:>11} {:>7} {:>10} {:>12}\n",
         "lens (thin lens alike)",
         "EFL mm",
         "f/",
@@ -392,7 +392,7 @@ pub fn lens_table(rows: &[LensRow]) -> String {
     );
     for r in rows {
         out.push_str(&format!(
-            "{:<28} {:>8.2} {:>6.2} {:>6.1} {:>11.3} {:>11.3} {:>7.2} {:>9.1}% {:>12.2}\n",
+            "{:<38} {:>8.2} {:>6.2} {:>6.1} {:>11.3} {:>11.3} {:>7.2} {:>9.1}% {:>12.2}\n",
             r.lens,
             r.efl_mm,
             r.f_number,

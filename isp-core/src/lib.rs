@@ -35,6 +35,7 @@ pub mod distortion;
 pub mod dpc;
 pub mod frame;
 pub mod highlights;
+pub mod lateral_colour;
 pub mod lsc;
 mod math;
 pub mod metrics;
