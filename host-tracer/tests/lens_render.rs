@@ -2,7 +2,9 @@
 //! falls off towards the corners as optics-core's relative illumination derived from the
 //! prescription says, so a shading grid made from it flattens the render (issue 58: at most
 //! 1 % left; the wide angle is at 1.6 %), and the falloff it removes is printed beside what is
-//! left.
+//! left. A grid of glowing dots through each lens measures the distortion and the lateral
+//! colour before and after the corrections derived from the prescription (a Brown-Conrady fit
+//! for isp-core's distortion stage, radial scales for its lateral-colour stage).
 
 use std::path::{Path, PathBuf};
 
@@ -134,5 +136,180 @@ fn a_white_sky_through_each_lens_falls_off_as_its_derived_illumination() {
             0.01
         };
         assert!(worst_after <= bound, "{}: {worst_after}", file.name);
+    }
+}
+
+/// Intensity-weighted centroid of channel `c` within `radius` pixels of `around` (pixel
+/// centres at whole numbers).
+fn centroid(rgb: &[f32], w: u32, h: u32, c: usize, around: [f64; 2], radius: f64) -> [f64; 2] {
+    let (mut sum, mut sx, mut sy) = (0.0f64, 0.0f64, 0.0f64);
+    let (x0, x1) = (
+        (around[0] - radius).floor().max(0.0) as u32,
+        ((around[0] + radius).ceil() as u32).min(w - 1),
+    );
+    let (y0, y1) = (
+        (around[1] - radius).floor().max(0.0) as u32,
+        ((around[1] + radius).ceil() as u32).min(h - 1),
+    );
+    for y in y0..=y1 {
+        for x in x0..=x1 {
+            let v = f64::from(rgb[3 * (y * w + x) as usize + c]);
+            sum += v;
+            sx += v * f64::from(x);
+            sy += v * f64::from(y);
+        }
+    }
+    [sx / sum, sy / sum]
+}
+
+#[test]
+fn dots_through_each_lens_land_where_the_derived_corrections_put_them_back() {
+    use isp_core::distortion::{BrownConrady, LensDistortion};
+    use isp_core::frame::{RgbView, RgbViewMut};
+    use isp_core::lateral_colour::{LateralColour, NODES};
+
+    let (w, h) = (240u32, 160u32);
+    for path in lenses() {
+        let file = LensFile::read(&path, DEFAULT_PBRT_ABBE).unwrap();
+        let half = file.field_deg.unwrap_or(20.0).to_radians();
+        let lens = file.prescription().unwrap();
+        let efl = lens.paraxial(LAMBDA_D_NM).unwrap().efl;
+        let diagonal_mm = 2.0 * efl * half.tan();
+        let pitch = diagonal_mm / f64::from(w).hypot(f64::from(h));
+        let d = 1000.0; // scene units (m): far enough to be at infinity for these lenses
+                        // A 7 x 5 grid of small glowing spheres spanning 90 % of the frame, at 1000 m.
+        let (cx, cy) = (f64::from(w) / 2.0 - 0.5, f64::from(h) / 2.0 - 0.5);
+        let mut text = format!(
+            "[film]\nwidth = {w}\nheight = {h}\nspp = 48\n\n[camera]\nposition = [0.0, 0.0, 0.0]\n\
+             target = [0.0, 0.0, -1.0]\nsensor_width_mm = {}\n\n",
+            pitch * f64::from(w)
+        );
+        let mut dots = Vec::new();
+        for j in 0..5 {
+            for i in 0..7 {
+                let u = (f64::from(i) / 6.0 - 0.5) * 0.9 * f64::from(w);
+                let v = (f64::from(j) / 4.0 - 0.5) * 0.9 * f64::from(h);
+                // The ideal (distortion-free) image: efl tan(angle), in pixels from the centre.
+                let (tx, ty) = (u * pitch / efl, v * pitch / efl);
+                dots.push([cx + u, cy + v]);
+                let r = d * 1.2 * pitch / efl;
+                text += &format!(
+                    "[[shape]]\ntype = \"sphere\"\ncenter = [{}, {}, {}]\nradius = {r}\n\
+                     emission = {{ rgb = [1.0, 1.0, 1.0] }}\n\n",
+                    tx * d,
+                    -ty * d,
+                    -d
+                );
+            }
+        }
+        let mut scene = scene_file::parse(&text, "dots", Path::new(".")).unwrap();
+        scene.camera.use_lens(file.clone()).unwrap();
+        scene.camera.focus_distance = Some(d as f32);
+        let settings = RenderSettings::for_scene(&scene);
+        let image = render(&scene, &settings).unwrap();
+
+        // The corrections, derived from the prescription.
+        let max_field = (half * 1.4).min(1.4);
+        let [k1, k2, k3] = lens.fit_brown_conrady(max_field, 540.0).unwrap();
+        let model = BrownConrady::from_opencv([k1, k2, 0.0, 0.0, k3]).unwrap();
+        let undistort = LensDistortion::new(efl / pitch, efl / pitch, cx, cy, model).unwrap();
+        let probe = LateralColour::new(
+            w as usize,
+            h as usize,
+            [cx, cy],
+            None,
+            &[1.0; NODES],
+            &[1.0; NODES],
+        )
+        .unwrap();
+        let mut scales = [[1.0f64; NODES]; 2];
+        for (row, nm) in scales.iter_mut().zip([647.5, 442.5]) {
+            // Beyond the field the lens passes, the last scale found holds.
+            let mut last = 1.0;
+            for (k, slot) in row.iter_mut().enumerate() {
+                let r_mm = probe.node_radius(k).unwrap() * pitch;
+                if let Some(s) = lens
+                    .lateral_colour_scale(r_mm, nm, 540.0, LAMBDA_D_NM, max_field)
+                    .unwrap()
+                {
+                    last = s;
+                }
+                *slot = last;
+            }
+        }
+        let lca = LateralColour::new(
+            w as usize,
+            h as usize,
+            [cx, cy],
+            None,
+            &scales[0],
+            &scales[1],
+        )
+        .unwrap();
+        let (wu, hu) = (w as usize, h as usize);
+        let mut after_lca = vec![0.0f32; image.rgb.len()];
+        lca.correct(
+            &RgbView::new(&image.rgb, wu, hu, 3 * wu).unwrap(),
+            &mut RgbViewMut::new(&mut after_lca, wu, hu, 3 * wu).unwrap(),
+        )
+        .unwrap();
+        let mut corrected = vec![0.0f32; image.rgb.len()];
+        undistort
+            .correct(
+                &RgbView::new(&after_lca, wu, hu, 3 * wu).unwrap(),
+                &mut RgbViewMut::new(&mut corrected, wu, hu, 3 * wu).unwrap(),
+            )
+            .unwrap();
+
+        let (mut dist_before, mut dist_after) = (0.0f64, 0.0f64);
+        let (mut lc_before, mut lc_after) = (0.0f64, 0.0f64);
+        for (n, ideal) in dots.iter().enumerate() {
+            // Where the lens put the dot: found near its ideal place, then refined there.
+            let mut raw = centroid(&image.rgb, w, h, 1, *ideal, 8.0);
+            raw = centroid(&image.rgb, w, h, 1, raw, 4.0);
+            let fixed = centroid(&corrected, w, h, 1, *ideal, 4.0);
+            let gap = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).hypot(a[1] - b[1]);
+            // A dot the lens loses (beyond its image circle) has no centroid.
+            if !(raw[0].is_finite() && fixed[0].is_finite()) {
+                continue;
+            }
+            dist_before = dist_before.max(gap(raw, *ideal));
+            dist_after = dist_after.max(gap(fixed, *ideal));
+            // Lateral colour at the corners: red and blue against green.
+            let corner = matches!(n, 0 | 6 | 28 | 34);
+            if corner {
+                let lc_raw = centroid(&after_lca, w, h, 1, raw, 4.0);
+                for c in [0, 2] {
+                    let before = centroid(&image.rgb, w, h, c, raw, 4.0);
+                    let after = centroid(&after_lca, w, h, c, lc_raw, 4.0);
+                    lc_before = lc_before.max(gap(before, raw));
+                    lc_after = lc_after.max(gap(after, lc_raw));
+                }
+            }
+        }
+        println!(
+            "{}: distortion {:.3} px before, {:.3} px after; lateral colour at the corners {:.3} px before, {:.3} px after",
+            file.name, dist_before, dist_after, lc_before, lc_after
+        );
+        // What holds so far (issue 58 asks for 0.1 px of distortion and 0.2 px of lateral
+        // colour left; not met yet, see the note there): the derived distortion correction
+        // never makes a dot worse, and removes at least a fifth of a large distortion.
+        assert!(
+            dist_after.is_finite() && dist_before.is_finite(),
+            "{}",
+            file.name
+        );
+        assert!(
+            dist_after <= dist_before + 0.02,
+            "{}: {dist_before} -> {dist_after}",
+            file.name
+        );
+        if dist_before > 1.0 {
+            assert!(
+                dist_after < 0.8 * dist_before,
+                "{}: {dist_before} -> {dist_after}",
+                file.name
+            );
+        }
     }
 }
