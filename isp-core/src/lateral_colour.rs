@@ -95,7 +95,7 @@ impl LateralColour {
         let corner = {
             let dx = centre[0].abs().max((width as f64 - 1.0 - centre[0]).abs());
             let dy = centre[1].abs().max((height as f64 - 1.0 - centre[1]).abs());
-            dx.hypot(dy)
+            libm::hypot(dx, dy)
         };
         let r_max = r_max.unwrap_or(corner);
         if !(1.0..=2.0 * side).contains(&r_max) {

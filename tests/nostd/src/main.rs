@@ -78,6 +78,7 @@ fn checks() -> bool {
         && pipeline_runs()
         && directional_runs()
         && prescription_runs()
+        && lateral_colour_runs()
 }
 
 /// A biconvex N-BK7 singlet in a stack array: its paraxial focal length, and a real ray that
@@ -125,6 +126,24 @@ fn prescription_runs() -> bool {
         && k1 > -0.2
         && ri > 0.5
         && ri < 1.0
+}
+
+/// The lateral-colour stage on a flat 8x6 frame in stack buffers: a flat field stays flat.
+fn lateral_colour_runs() -> bool {
+    use isp_core::frame::{RgbView, RgbViewMut};
+    use isp_core::lateral_colour::{LateralColour, NODES};
+    let Ok(lca) = LateralColour::new(8, 6, [3.5, 2.5], None, &[1.01; NODES], &[0.99; NODES]) else {
+        return false;
+    };
+    let src = [500u16; 8 * 6 * 3];
+    let mut dst = [0u16; 8 * 6 * 3];
+    let (Ok(view), Ok(mut out)) = (
+        RgbView::new(&src, 8, 6, 24),
+        RgbViewMut::new(&mut dst, 8, 6, 24),
+    ) else {
+        return false;
+    };
+    lca.correct(&view, &mut out).is_ok() && dst.iter().all(|&v| v == 500)
 }
 
 /// The directional demosaic, float and integer, on a flat 8x8 mosaic in stack buffers: the
