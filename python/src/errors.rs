@@ -82,6 +82,15 @@ pub(crate) fn camsim(e: camsim::Error) -> PyErr {
     }
 }
 
+/// A lens file's error: one the operating system gave as `OSError` (`FileNotFoundError` for a
+/// missing file), the rest as [`camsim`] maps them.
+pub(crate) fn lens_file(e: host_tracer::Error) -> PyErr {
+    match &e {
+        host_tracer::Error::Io { source, .. } => os_error(source.kind(), e.to_string()),
+        _ => camsim(e.into()),
+    }
+}
+
 /// An isp-core refusal.
 pub(crate) fn isp(e: isp_core::IspError) -> PyErr {
     ProcessingError::new_err(e.to_string())

@@ -106,8 +106,7 @@ fn optics_apply<'py>(
 /// A lens file's report (`camsim lens --json`) at `wavelength_nm`, as JSON text.
 #[pyfunction]
 fn lens_report(path: std::path::PathBuf, wavelength_nm: f64, pbrt_abbe: f64) -> PyResult<String> {
-    let lens =
-        camsim::lens::LensFile::read(&path, pbrt_abbe).map_err(|e| errors::camsim(e.into()))?;
+    let lens = camsim::lens::LensFile::read(&path, pbrt_abbe).map_err(errors::lens_file)?;
     let report = camsim::lens::LensReport::of(&lens, wavelength_nm)
         .map_err(|e| errors::camsim(e.in_file(&path)))?;
     serde_json::to_string(&report).map_err(|e| errors::option(e.to_string()))
@@ -122,8 +121,7 @@ fn lens_trace(
     wavelength_nm: f64,
     pbrt_abbe: f64,
 ) -> PyResult<String> {
-    let lens =
-        camsim::lens::LensFile::read(&path, pbrt_abbe).map_err(|e| errors::camsim(e.into()))?;
+    let lens = camsim::lens::LensFile::read(&path, pbrt_abbe).map_err(errors::lens_file)?;
     let rays: Vec<camsim::lens::RayInput> =
         serde_json::from_str(rays_json).map_err(|e| errors::option(format!("rays: {e}")))?;
     let out = camsim::lens::trace_rays(&lens, &rays, wavelength_nm).map_err(errors::camsim)?;

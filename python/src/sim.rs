@@ -111,19 +111,22 @@ fn render_scene(
     desc.camera
         .rig(s.width, s.height, false, &mut table)
         .map_err(sim)?;
-    let last = std::sync::atomic::AtomicUsize::new(usize::MAX);
+    let reported = std::sync::atomic::AtomicUsize::new(0);
     let image = py
         .detach(|| {
             render_with_progress(&desc, &s, &|p| {
                 if let Some(callback) = &progress {
-                    // One call per tile count, from whichever worker finished it.
-                    if last.swap(p.done, std::sync::atomic::Ordering::Relaxed) != p.done {
-                        Python::attach(|py| {
+                    // Workers finish tiles in any order and reach the interpreter in any
+                    // order; under the GIL, only a count above the last one reported is
+                    // passed on, so the calls rise and the last is (total, total).
+                    Python::attach(|py| {
+                        if p.done > reported.load(std::sync::atomic::Ordering::Relaxed) {
+                            reported.store(p.done, std::sync::atomic::Ordering::Relaxed);
                             if let Err(e) = callback.call1(py, (p.done, p.total)) {
                                 e.print(py);
                             }
-                        });
-                    }
+                        }
+                    });
                 }
             })
         })
