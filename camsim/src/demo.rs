@@ -660,11 +660,7 @@ pub fn capture(
     config.frame_seed = args.seed;
     let mut scene = scene_file::load(&args.scene)?;
     if let Some(path) = &args.lens {
-        let file = host_tracer::lens_file::LensFile::read(
-            path,
-            host_tracer::lens_file::DEFAULT_PBRT_ABBE,
-        )?;
-        scene.camera.use_lens(file)?;
+        scene.camera.use_lens_file(path)?;
     }
     capture_scene(scene, args, &config, progress)
 }

@@ -199,27 +199,18 @@ impl LateralColour {
             });
         }
         for v in 0..h {
+            let src_row = src.row(v).unwrap_or(&[]);
             let out = dst.row_mut(v);
-            for u in 0..w {
-                let green = src
-                    .row(v)
-                    .and_then(|r| r.get(3 * u + 1))
-                    .copied()
-                    .unwrap_or_default();
-                let mut px = [T::default(), green, T::default()];
-                for (c, channel) in [(0usize, 0usize), (1, 2)] {
-                    px[channel] = if self.identity {
-                        src.row(v)
-                            .and_then(|r| r.get(3 * u + channel))
-                            .copied()
-                            .unwrap_or_default()
-                    } else {
-                        self.sample(src, self.source_position(c, u, v), channel)
-                    };
-                }
-                if let Some(o) = out.get_mut(3 * u..3 * u + 3) {
-                    o.copy_from_slice(&px);
-                }
+            if self.identity {
+                // Scales of 1 read every colour where it is: the row as it is.
+                let n = out.len().min(src_row.len()).min(3 * w);
+                out[..n].copy_from_slice(&src_row[..n]);
+                continue;
+            }
+            for (u, px) in out.chunks_exact_mut(3).take(w).enumerate() {
+                px[0] = self.sample(src, self.source_position(0, u, v), 0);
+                px[1] = src_row.get(3 * u + 1).copied().unwrap_or_default();
+                px[2] = self.sample(src, self.source_position(1, u, v), 2);
             }
         }
         Ok(())

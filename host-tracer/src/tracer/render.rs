@@ -172,6 +172,11 @@ fn render_tile<const N: usize>(
     let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
     let inv_spp = 1.0 / settings.spp as f32;
     let mut lost = 0u64;
+    // With a lens, each channel's samples are averaged over their own count when every
+    // channel gets one (spp >= N), so a pixel's channels do not flicker with the share each
+    // got; below that, each sample stands for all N channels' share of the pixel.
+    let per_channel = rig.lens.is_some() && settings.spp as usize >= N;
+    let lens_scale = if per_channel { 1.0 } else { N as f32 };
     for y in y0..y1 {
         for x in x0..x1 {
             let mut rng = Rng::new(settings.seed, y as u64 * w as u64 + x as u64);
@@ -183,11 +188,6 @@ fn render_tile<const N: usize>(
             } else {
                 0
             };
-            // Each channel's samples are averaged over their own count when every channel
-            // gets one (spp >= N), so a pixel's channels do not flicker with the share each
-            // got; below that, each sample stands for all N channels' share of the pixel.
-            let per_channel = rig.lens.is_some() && settings.spp as usize >= N;
-            let lens_scale = if per_channel { 1.0 } else { N as f32 };
             for k in 0..settings.spp {
                 let jitter = rng.next_2d();
                 let (px, py) = (x as f32 + jitter.x, y as f32 + jitter.y);

@@ -205,6 +205,12 @@ impl CameraDesc {
         Ok(n)
     }
 
+    /// [`Self::use_lens`] with the lens read from `path` (TOML, or pbrt's `.dat` with
+    /// [`crate::lens_file::DEFAULT_PBRT_ABBE`]): what `--lens FILE` does.
+    pub fn use_lens_file(&mut self, path: &std::path::Path) -> crate::Result<f64> {
+        self.use_lens(LensFile::read(path, crate::lens_file::DEFAULT_PBRT_ABBE)?)
+    }
+
     /// Focus distance in scene units.
     pub fn focus_distance(&self) -> f32 {
         self.focus_distance

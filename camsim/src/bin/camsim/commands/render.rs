@@ -77,11 +77,7 @@ fn positive(v: Option<f32>, what: &'static str) -> Result<Option<f32>, Error> {
 /// Applies the command line's overrides to the scene's camera and film.
 pub fn settings(args: &RenderArgs, scene: &mut SceneDesc) -> Result<RenderSettings, Error> {
     if let Some(path) = &args.lens {
-        let file = host_tracer::lens_file::LensFile::read(
-            path,
-            host_tracer::lens_file::DEFAULT_PBRT_ABBE,
-        )?;
-        scene.camera.use_lens(file)?;
+        scene.camera.use_lens_file(path)?;
     }
     if scene.camera.lens.is_some() && (args.camera.is_some() || args.aperture_radius.is_some()) {
         return Err(Error::Message(
