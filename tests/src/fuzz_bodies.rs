@@ -426,4 +426,29 @@ pub fn lens_prescription(data: &[u8]) {
     {
         assert!(v.is_finite(), "an analysis answered {v}");
     }
+    // The ISP corrections derived from the prescription: errors or finite answers too.
+    let max_field = next(1.6).abs();
+    if let Ok(k) = lens.fit_brown_conrady(max_field, wavelength) {
+        assert!(k.iter().all(|v| v.is_finite()), "a fit answered {k:?}");
+    }
+    let height = next(30.0).abs();
+    for v in [
+        lens.field_at_height(height, wavelength, wavelength, max_field)
+            .ok()
+            .flatten(),
+        lens.lateral_colour_scale(height, 486.1, wavelength, wavelength, max_field)
+            .ok()
+            .flatten(),
+    ]
+    .into_iter()
+    .flatten()
+    {
+        assert!(v.is_finite(), "a correction answered {v}");
+    }
+    let mut scratch = [Surface::new(Shape::Flat, 1.0, 1.0, Medium::Air); 6];
+    if let Ok(Some(v)) =
+        lens.illumination_at_height(height, next(200.0).abs(), wavelength, 3, &mut scratch)
+    {
+        assert!(v.is_finite(), "the illumination answered {v}");
+    }
 }

@@ -10,7 +10,7 @@
 use super::paraxial::Pupil;
 use super::trace::{Ray, Traced};
 use super::Prescription;
-use crate::real::positive;
+use crate::real::{checked, positive};
 use crate::{OpticsError, Real, Result};
 
 /// The largest pupil grid side: `n x n` rays per field point.
@@ -74,21 +74,26 @@ impl<T: Real> Prescription<'_, T> {
     ) -> Result<Option<T>> {
         let bfl = self.paraxial(reference_nm)?.bfl;
         let ray = self.aimed_ray(field_rad, [T::zero(); 2], wavelength_nm)?;
-        Ok(match self.trace_to_plane(&ray, bfl)? {
-            Traced::Image { point, .. } => Some(point[1]),
-            Traced::Lost { .. } => None,
-        })
+        match self.trace_to_plane(&ray, bfl)? {
+            Traced::Image { point, .. } => checked(point[1]).map(Some),
+            Traced::Lost { .. } => Ok(None),
+        }
     }
 
     /// Distortion at `field_rad`, percent: the chief ray's height on the paraxial focal plane
-    /// against `efl tan(field)`, all at `wavelength_nm`. `None` when the chief ray is lost.
+    /// against `efl tan(field)`, all at `wavelength_nm`. `None` when the chief ray is lost;
+    /// [`OpticsError::Overflow`] when the ratio does not fit `T` (an ideal height of zero).
     pub fn distortion_percent(&self, field_rad: T, wavelength_nm: T) -> Result<Option<T>> {
         positive(field_rad, "field_rad")?;
         let efl = self.paraxial(wavelength_nm)?.efl;
         let ideal = efl * field_rad.tan();
-        Ok(self
-            .chief_height(field_rad, wavelength_nm, wavelength_nm)?
-            .map(|y| T::lit(100.0) * (y - ideal) / ideal))
+        self.chief_height(field_rad, wavelength_nm, wavelength_nm)?
+            .map(|y| {
+                // A field so small that `efl tan(field)` underflows to zero has no ratio to
+                // report: an error, never a NaN.
+                checked(T::lit(100.0) * (y - ideal) / ideal)
+            })
+            .transpose()
     }
 
     /// Lateral colour at `field_rad`, mm: the chief ray's height at `short_nm` less that at
@@ -102,13 +107,13 @@ impl<T: Real> Prescription<'_, T> {
     ) -> Result<Option<T>> {
         let short = self.chief_height(field_rad, short_nm, reference_nm)?;
         let long = self.chief_height(field_rad, long_nm, reference_nm)?;
-        Ok(short.zip(long).map(|(s, l)| s - l))
+        short.zip(long).map(|(s, l)| checked(s - l)).transpose()
     }
 
     /// Chromatic focal shift, mm: the back focal length at `wavelength_nm` less that at
     /// `reference_nm`.
     pub fn chromatic_focal_shift(&self, wavelength_nm: T, reference_nm: T) -> Result<T> {
-        Ok(self.paraxial(wavelength_nm)?.bfl - self.paraxial(reference_nm)?.bfl)
+        checked(self.paraxial(wavelength_nm)?.bfl - self.paraxial(reference_nm)?.bfl)
     }
 
     /// Traces an `n x n` grid over the entrance pupil's disk at `field_rad` to the paraxial
@@ -175,7 +180,7 @@ impl<T: Real> Prescription<'_, T> {
     /// left out); `None` when no ray arrives.
     pub fn rms_spot(&self, field_rad: T, wavelength_nm: T, n: usize) -> Result<Option<T>> {
         let (_, arrived, rms, _) = self.pupil_grid(field_rad, wavelength_nm, n)?;
-        Ok((arrived > 0).then_some(rms))
+        (arrived > 0).then(|| checked(rms)).transpose()
     }
 
     /// Relative illumination at `field_rad` against the axis: the fraction of an `n x n`
@@ -200,6 +205,6 @@ impl<T: Real> Prescription<'_, T> {
         let fraction = (T::lit(arrived as f64) / T::lit(inside as f64))
             / (T::lit(arrived0 as f64) / T::lit(inside0 as f64));
         let c = a.cos() / a0.cos();
-        Ok(Some(fraction * c * c * c * c))
+        checked(fraction * c * c * c * c).map(Some)
     }
 }

@@ -19,6 +19,7 @@
 
 use super::trace::{Ray, Traced};
 use super::{Prescription, Surface};
+use crate::real::checked;
 use crate::{OpticsError, Real, Result};
 
 /// Chief rays the distortion fit samples over the field.
@@ -108,10 +109,14 @@ impl<T: Real> Prescription<'_, T> {
                 allowed: "a field the lens passes chief rays over",
             });
         }
-        solve3(a, b).ok_or(OpticsError::InvalidParameter {
+        let k = solve3(a, b).ok_or(OpticsError::InvalidParameter {
             name: "max_field_rad",
             allowed: "a field wide enough to fit three coefficients",
-        })
+        })?;
+        for v in k {
+            checked(v)?;
+        }
+        Ok(k)
     }
 
     /// The factor by which the image at `wavelength_nm` is larger than at `reference_nm` at
@@ -137,10 +142,10 @@ impl<T: Real> Prescription<'_, T> {
             };
         let reference = self.chief_height(field, reference_nm, focal_plane_nm)?;
         let colour = self.chief_height(field, wavelength_nm, focal_plane_nm)?;
-        Ok(match (colour, reference) {
-            (Some(c), Some(r)) if r > T::zero() => Some(c / r),
-            _ => None,
-        })
+        match (colour, reference) {
+            (Some(c), Some(r)) if r > T::zero() => checked(c / r).map(Some),
+            _ => Ok(None),
+        }
     }
 
     /// Relative illumination at image radius `height_mm` on the plane `image_distance_mm`
@@ -180,7 +185,7 @@ impl<T: Real> Prescription<'_, T> {
             return Ok(None);
         }
         let here = projected_solid_angle(&back, height_mm, image_distance_mm, wavelength_nm, n)?;
-        Ok(Some(here / axis))
+        checked(here / axis).map(Some)
     }
 }
 
