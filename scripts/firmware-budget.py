@@ -226,10 +226,17 @@ def main():
     for name in order:
         if name in m4 and "instructions_per_run" in m4[name]:
             lines.append("")
+            what = {
+                "optics-fixed-focus-dof": "for the whole grid of lenses and subjects "
+                "(firmware_cases::optics_checksum)",
+                "optics-tessar-corrections": "at start-up to derive the ISP's corrections from the "
+                "Tessar's prescription: Brown-Conrady fit, 17 lateral-colour nodes, 9 shading radii "
+                "(firmware_cases::lens_corrections_checksum)",
+            }.get(name, "for the whole run")
             lines.append(
                 f"{name}: {m4[name]['instructions_per_run']:,} instructions on the M4, "
                 f"{m33[name]['instructions_per_run']:,} on the M33, {a53[name]['instructions_per_run']:,} "
-                "on the A53 for the whole grid of lenses and subjects (firmware_cases::optics_checksum)."
+                f"on the A53 {what}."
             )
     table = "\n".join(lines) + "\n"
     with open(os.path.join(args.out, "budget.md"), "w") as f:

@@ -51,6 +51,7 @@ use core::ops::{Range, RangeInclusive};
 pub use optics_core::distortion::BrownConrady;
 
 use crate::frame::{RgbView, RgbViewMut, Sample};
+use crate::lateral_colour::{clamped_taps, LateralColour};
 use crate::IspError;
 
 /// Fractional bits of source positions (OpenCV's `INTER_BITS`): 1/32 pixel.
@@ -99,6 +100,8 @@ pub struct LensDistortion {
     model: BrownConrady<f64>,
     /// The mesh's cell side, `2^cell_bits` pixels (16 unless [`LensDistortion::fitted`]).
     cell_bits: u32,
+    /// Lateral colour corrected in the same resampling, or `None`.
+    lateral_colour: Option<LateralColour>,
 }
 
 impl LensDistortion {
@@ -130,7 +133,42 @@ impl LensDistortion {
             cy,
             model,
             cell_bits: CELL_BITS,
+            lateral_colour: None,
         })
+    }
+
+    /// Lateral colour corrected on a frame without distortion correction: the identity model
+    /// about `lca`'s centre, `lca` composed with it (see
+    /// [`LensDistortion::with_lateral_colour`]).
+    pub fn lateral_colour_only(lca: LateralColour) -> Self {
+        let [cx, cy] = lca.centre();
+        Self {
+            // Any focal length maps the identity model's ideal rays to themselves.
+            fx: 1.0,
+            fy: 1.0,
+            cx,
+            cy,
+            model: BrownConrady::default(),
+            cell_bits: CELL_BITS,
+            lateral_colour: (!lca.is_identity()).then_some(lca),
+        }
+    }
+
+    /// The same lens with lateral colour corrected in the same resampling: green is read where
+    /// the mesh puts it, red and blue where [`LateralColour::map_position`] moves green's
+    /// position (so the colours are aligned in the lens's own, distorted image, where the
+    /// prescription's scales were taken, and then undistorted together). One bilinear blend per
+    /// colour, not two; red's and blue's taps beyond the frame read its edge, and a pixel whose
+    /// green reads nothing of the frame is black in every colour. A `lca` with every scale 1
+    /// is dropped.
+    pub fn with_lateral_colour(mut self, lca: LateralColour) -> Self {
+        self.lateral_colour = (!lca.is_identity()).then_some(lca);
+        self
+    }
+
+    /// The lateral-colour correction composed with this lens, if any.
+    pub fn lateral_colour(&self) -> Option<&LateralColour> {
+        self.lateral_colour.as_ref()
     }
 
     /// The same lens with its mesh's cell fitted to a `width` x `height` frame: the largest of
@@ -219,9 +257,9 @@ impl LensDistortion {
         self.model
     }
 
-    /// Whether correction changes nothing (every coefficient zero).
+    /// Whether correction changes nothing (every coefficient zero and no lateral colour).
     pub fn is_identity(&self) -> bool {
-        self.model.is_identity()
+        self.model.is_identity() && self.lateral_colour.is_none()
     }
 
     /// Where output pixel `(u, v)` samples the input, in 1/32 pixel, or `None` when the lens
@@ -308,16 +346,61 @@ impl LensDistortion {
     /// Widens `bounds` to the lowest and highest input rows (clipped to the frame) that any
     /// usable node of a row of interpolated nodes points into, with the next row: a bound on
     /// what an output row reads, since a position between two nodes lies between theirs.
-    pub(crate) fn node_row_bounds(&self, row: &[i32], height: usize, bounds: &mut (i64, i64)) {
+    /// `reach` rows more each way for red and blue ([`LensDistortion::colour_reach`]).
+    pub(crate) fn node_row_bounds(
+        &self,
+        row: &[i32],
+        height: usize,
+        reach: i64,
+        bounds: &mut (i64, i64),
+    ) {
         for node in row.chunks_exact(2) {
             if node[1] == NO_NODE {
                 continue;
             }
             let q = round_row(self.cell_bits, i64::from(node[1]) << self.cell_bits);
             let y0 = i64::from(q >> SUBPIXEL_BITS);
-            bounds.0 = bounds.0.min(y0.max(0));
-            bounds.1 = bounds.1.max((y0 + 1).min(height as i64 - 1));
+            bounds.0 = bounds.0.min((y0 - reach).max(0));
+            bounds.1 = bounds.1.max((y0 + 1 + reach).min(height as i64 - 1));
         }
+    }
+
+    /// The rows red and blue may read beyond green's, in a `width` x `height` frame: 0
+    /// without lateral colour.
+    pub(crate) fn colour_reach(&self, width: usize, height: usize) -> i64 {
+        self.lateral_colour
+            .map_or(0, |lca| lca.reach_rows_in(width, height) as i64)
+    }
+
+    /// The three colours' bilinear sums for a pixel whose green is read at `q`, with the
+    /// lateral-colour correction `lca` (see [`LensDistortion::with_lateral_colour`]); `read`
+    /// gives a colour at a column and row of the frame.
+    #[inline(always)]
+    pub(crate) fn colour_pixel<T: Sample>(
+        lca: &LateralColour,
+        q: Option<[i32; 2]>,
+        width: usize,
+        height: usize,
+        read: impl Fn(usize, usize, usize) -> T,
+    ) -> [T::Acc; 3] {
+        let mut acc = [T::Acc::default(); 3];
+        let Some(q) = q else {
+            return acc;
+        };
+        let green = taps(q, width, height);
+        if green.iter().all(Option::is_none) {
+            return acc;
+        }
+        for (xi, yi, weight) in green.into_iter().flatten() {
+            acc[1] = acc[1] + read(xi, yi, 1).weighted(weight);
+        }
+        let q = [i64::from(q[0]), i64::from(q[1])];
+        for (k, c) in [(0, 0), (1, 2)] {
+            for (xi, yi, weight) in clamped_taps(lca.map_position(k, q), width, height) {
+                acc[c] = acc[c] + read(xi, yi, c).weighted(weight);
+            }
+        }
+        acc
     }
 
     /// The input rows output row `v` reads (a bound from its cell row's nodes, see
@@ -330,13 +413,14 @@ impl LensDistortion {
         height: usize,
     ) -> Option<RangeInclusive<usize>> {
         let b = self.cell_bits;
+        let reach = self.colour_reach(width, height);
         let mut bounds = (i64::MAX, i64::MIN);
         let (mut top, mut bottom, mut row) = strip_rows();
         for (first, n) in self.strips(width) {
             self.mesh_row(v >> b, first, &mut top[..n]);
             self.mesh_row((v >> b) + 1, first, &mut bottom[..n]);
             interpolate_rows(b, &top[..n], &bottom[..n], v, &mut row[..n]);
-            self.node_row_bounds(&row[..n], height, &mut bounds);
+            self.node_row_bounds(&row[..n], height, reach, &mut bounds);
         }
         (bounds.0 <= bounds.1).then_some(bounds.0 as usize..=bounds.1 as usize)
     }
@@ -352,6 +436,7 @@ impl LensDistortion {
     pub fn window_rows_in(&self, width: usize, height: usize, rows: Range<usize>) -> usize {
         let b = self.cell_bits;
         let cell = 1usize << b;
+        let reach = self.colour_reach(width, height);
         let mut most = 0;
         let (mut top, mut bottom, mut row) = strip_rows();
         let last = rows.end.min(height);
@@ -362,7 +447,7 @@ impl LensDistortion {
                 self.mesh_row(j + 1, first, &mut bottom[..n]);
                 for (fv, bound) in bounds[..cell].iter_mut().enumerate() {
                     interpolate_rows(b, &top[..n], &bottom[..n], fv, &mut row[..n]);
-                    self.node_row_bounds(&row[..n], height, bound);
+                    self.node_row_bounds(&row[..n], height, reach, bound);
                 }
             }
             for (fv, &(lo, hi)) in bounds[..cell].iter().enumerate() {
@@ -396,6 +481,14 @@ impl LensDistortion {
         out: &mut [T],
     ) {
         for (u, px) in out.chunks_exact_mut(3).enumerate().take(width) {
+            if let Some(lca) = &self.lateral_colour {
+                let read = |xi: usize, yi: usize, c: usize| source(yi)[3 * xi + c];
+                let acc = Self::colour_pixel(lca, self.mesh_position(u, v), width, height, read);
+                for c in 0..3 {
+                    px[c] = T::scaled_down(acc[c], WEIGHT_BITS);
+                }
+                continue;
+            }
             let mut acc = [T::Acc::default(); 3];
             for (xi, yi, weight) in self
                 .mesh_position(u, v)
@@ -442,6 +535,19 @@ impl LensDistortion {
                 let out = &mut dst.row_mut(v)[3 * u0..3 * u1];
                 for (k, px) in out.chunks_exact_mut(3).enumerate() {
                     let position = row_position(b, &row[2 * (k >> b)..n], k & ((1 << b) - 1));
+                    if let Some(lca) = &self.lateral_colour {
+                        // Rows of a checked view below its height always exist, and taps lie
+                        // within the frame.
+                        let read = |xi: usize, yi: usize, c: usize| {
+                            let src = src.row(yi).unwrap_or(&[]);
+                            src.get(3 * xi + c).copied().unwrap_or_default()
+                        };
+                        let acc = Self::colour_pixel(lca, position, w, h, read);
+                        for c in 0..3 {
+                            px[c] = T::scaled_down(acc[c], WEIGHT_BITS);
+                        }
+                        continue;
+                    }
                     let mut acc = [T::Acc::default(); 3];
                     for (xi, yi, weight) in position
                         .map_or([None; 4], |q| taps(q, w, h))

@@ -128,11 +128,39 @@ impl LateralColour {
         })
     }
 
+    /// [`LateralColour::new`] with the scales read off a curve: `curve(radius)` gives red's and
+    /// blue's scale at an image radius in pixels (each node's, [`LateralColour::node_radius`]),
+    /// or `None` beyond the field the lens passes, where the last scale found holds (1 before
+    /// the first). How a prescription's `lateral_colour_scale` becomes the stage.
+    pub fn from_curve(
+        width: usize,
+        height: usize,
+        centre: [f64; 2],
+        r_max: Option<f64>,
+        mut curve: impl FnMut(f64) -> Option<[f64; 2]>,
+    ) -> Result<Self, IspError> {
+        let probe = Self::new(width, height, centre, r_max, &[1.0; NODES], &[1.0; NODES])?;
+        let (mut red, mut blue) = ([1.0; NODES], [1.0; NODES]);
+        let mut last = [1.0, 1.0];
+        for k in 0..NODES {
+            if let Some(scales) = probe.node_radius(k).and_then(&mut curve) {
+                last = scales;
+            }
+            [red[k], blue[k]] = last;
+        }
+        Self::new(width, height, centre, r_max, &red, &blue)
+    }
+
     /// The radius of node `k`, pixels: `r_max sqrt(k / (NODES - 1))` (`None` beyond the last).
     pub fn node_radius(&self, k: usize) -> Option<f64> {
         (k < NODES).then(|| {
             libm::sqrt(self.r2_max as f64 * k as f64 / (NODES - 1) as f64) / SUBPIXELS as f64
         })
+    }
+
+    /// The centre, pixels (as given, rounded to 1/32 pixel).
+    pub fn centre(&self) -> [f64; 2] {
+        self.centre.map(|c| c as f64 / SUBPIXELS as f64)
     }
 
     /// Whether every scale is 1 (the stage changes nothing and a pipeline skips it).
@@ -143,10 +171,15 @@ impl LateralColour {
     /// The source position of colour `c` (0 red, 1 blue) for output pixel `(u, v)`, 1/32
     /// pixel.
     pub fn source_position(&self, c: usize, u: usize, v: usize) -> [i64; 2] {
-        let d = [
-            (u as i64) * SUBPIXELS - self.centre[0],
-            (v as i64) * SUBPIXELS - self.centre[1],
-        ];
+        self.map_position(c, [(u as i64) * SUBPIXELS, (v as i64) * SUBPIXELS])
+    }
+
+    /// Where colour `c` (0 red, 1 blue) is read for a pixel whose green is read at `q` (1/32
+    /// pixel): `q` rescaled about the centre by the colour's scale at its radius. `q` within
+    /// 2^21 pixels of the centre (a frame's positions and a lens mesh's usable ones are).
+    #[inline]
+    pub fn map_position(&self, c: usize, q: [i64; 2]) -> [i64; 2] {
+        let d = [q[0] - self.centre[0], q[1] - self.centre[1]];
         let r2 = d[0] * d[0] + d[1] * d[1];
         let scales = &self.scales[c.min(1)];
         let s = if r2 >= self.r2_max {
@@ -167,12 +200,15 @@ impl LateralColour {
     /// The rows of input an output row needs: the tallest reach of a red or blue source
     /// position above or below its row, in whole rows, plus one for the bilinear tap.
     pub fn reach_rows(&self) -> usize {
-        let corners = [
-            (0, 0),
-            (self.width - 1, 0),
-            (0, self.height - 1),
-            (self.width - 1, self.height - 1),
-        ];
+        self.reach_rows_in(self.width, self.height)
+    }
+
+    /// [`LateralColour::reach_rows`] over a `width` x `height` frame (the correction's centre,
+    /// radius and scales applied to another frame's positions, as the pipeline does when a
+    /// lens's mesh moves green's position off its pixel).
+    pub fn reach_rows_in(&self, width: usize, height: usize) -> usize {
+        let (w, h) = (width.clamp(1, MAX_SIDE), height.clamp(1, MAX_SIDE));
+        let corners = [(0, 0), (w - 1, 0), (0, h - 1), (w - 1, h - 1)];
         let mut reach = 0i64;
         for c in 0..2 {
             for &(u, v) in &corners {
@@ -218,30 +254,38 @@ impl LateralColour {
 
     /// The bilinear blend of `channel` at `q` (1/32 pixel), taps clamped to the frame.
     fn sample<T: Sample>(&self, src: &RgbView<'_, T>, q: [i64; 2], channel: usize) -> T {
-        let (x0, y0) = (q[0] >> SUBPIXEL_BITS, q[1] >> SUBPIXEL_BITS);
-        let (ax, ay) = (q[0] & (SUBPIXELS - 1), q[1] & (SUBPIXELS - 1));
-        let clamp_x = |x: i64| x.clamp(0, self.width as i64 - 1) as usize;
-        let clamp_y = |y: i64| y.clamp(0, self.height as i64 - 1) as usize;
-        let taps = [
-            (x0, y0, (SUBPIXELS - ax) * (SUBPIXELS - ay)),
-            (x0 + 1, y0, ax * (SUBPIXELS - ay)),
-            (x0, y0 + 1, (SUBPIXELS - ax) * ay),
-            (x0 + 1, y0 + 1, ax * ay),
-        ];
         let mut acc = T::Acc::default();
-        for (x, y, weight) in taps {
-            if weight == 0 {
-                continue;
-            }
+        for (x, y, weight) in clamped_taps(q, self.width, self.height) {
             let sample = src
-                .row(clamp_y(y))
-                .and_then(|r| r.get(3 * clamp_x(x) + channel))
+                .row(y)
+                .and_then(|r| r.get(3 * x + channel))
                 .copied()
                 .unwrap_or_default();
-            acc = acc + sample.weighted(weight as i32);
+            acc = acc + sample.weighted(weight);
         }
         T::scaled_down(acc, WEIGHT_BITS)
     }
+}
+
+/// The four bilinear taps of `q` (1/32 pixel) in a `width` x `height` frame (both at least
+/// 1): column, row and integer weight (the four sum to 1024), a tap beyond the frame moved to
+/// the nearest edge pixel.
+#[inline(always)]
+pub(crate) fn clamped_taps(q: [i64; 2], width: usize, height: usize) -> [(usize, usize, i32); 4] {
+    let (x0, y0) = (q[0] >> SUBPIXEL_BITS, q[1] >> SUBPIXEL_BITS);
+    let (ax, ay) = (q[0] & (SUBPIXELS - 1), q[1] & (SUBPIXELS - 1));
+    let clamp_x = |x: i64| x.clamp(0, width as i64 - 1) as usize;
+    let clamp_y = |y: i64| y.clamp(0, height as i64 - 1) as usize;
+    [
+        (
+            clamp_x(x0),
+            clamp_y(y0),
+            ((SUBPIXELS - ax) * (SUBPIXELS - ay)) as i32,
+        ),
+        (clamp_x(x0 + 1), clamp_y(y0), (ax * (SUBPIXELS - ay)) as i32),
+        (clamp_x(x0), clamp_y(y0 + 1), ((SUBPIXELS - ax) * ay) as i32),
+        (clamp_x(x0 + 1), clamp_y(y0 + 1), (ax * ay) as i32),
+    ]
 }
 
 #[cfg(test)]

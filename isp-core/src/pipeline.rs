@@ -15,7 +15,7 @@
 //! x_c  = min(wb_c * x_c, 1)                         white balance per CFA colour, clipped at white
 //! rgb  = demosaic(x)                                reflect-101 borders, clamped to [0, 1]
 //! rgb  = highlights(rgb, x)                         colour near clipping fades to neutral (highlights module)
-//! rgb  = undistort(rgb)                             lens distortion correction, off by default
+//! rgb  = undistort(rgb)                             lens distortion and lateral colour, off by default
 //! lin  = clamp(CCM * rgb, 0, 1)
 //! lin  = tone(lin)                                  saturation, contrast, curve (tone module)
 //! e    = srgb_oetf(lin)
@@ -27,7 +27,9 @@
 //! in `f32`, with `nr` the noise reduction of [`crate::denoise`] over the whole normalised
 //! mosaic (non-local means on its 2x2 blocks, distances in units of the profile's variance), `lsc` the bilinear interpolation of the Q4.12 grid (exactly `q / 4096` per
 //! node), `undistort` the 1/32-pixel bilinear resampling of [`crate::distortion`] (OpenCV's
-//! `cv2.undistort`, black where the lens saw nothing), and `srgb_oetf` the exact IEC 61966-2-1
+//! `cv2.undistort`, black where the lens saw nothing; with a lateral-colour correction composed
+//! in, red and blue read where [`crate::lateral_colour`] moves green's source position, in
+//! the same blend), and `srgb_oetf` the exact IEC 61966-2-1
 //! curve ([`crate::srgb::encode`]). Sharpening is an unsharp mask on luma in the encoded
 //! domain (where ISPs sharpen, so the overshoot is even to the eye): `Y = 0.2126 e_r + 0.7152
 //! e_g + 0.0722 e_b` (Rec. 709 luma), `blur` the 3x3 binomial kernel `[1 2 1]^T [1 2 1] / 16`

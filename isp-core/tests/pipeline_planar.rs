@@ -10,6 +10,7 @@ use isp_core::denoise::Search;
 use isp_core::distortion::{BrownConrady, LensDistortion};
 use isp_core::dpc::{Defect, DpcConfig};
 use isp_core::frame::{LinearFrame, RawFrame};
+use isp_core::lateral_colour::LateralColour;
 use isp_core::lsc::LensShading;
 use isp_core::noise::NoiseProfile;
 use isp_core::pipeline::{FixedPipeline, FloatPipeline, Input, IspConfig, OutputSample, IDENTITY};
@@ -44,6 +45,8 @@ struct Case {
     knee: f32,
     /// Barrel or pincushion strength, when distortion correction is on.
     distortion: Option<f64>,
+    /// Red's and blue's scale at the corner (lateral colour), when its correction is on.
+    lateral_colour: Option<(f64, f64)>,
     look: Look,
     chroma: f32,
     sharpen: f32,
@@ -100,6 +103,10 @@ fn case() -> impl Strategy<Value = Case> {
                     prop_oneof![Just(0.0f32), 0.0f32..=4.0],
                     prop_oneof![Just(8u8), Just(16u8), Just(0u8)],
                     proptest::collection::vec(1usize..=h, 1..4),
+                    prop_oneof![
+                        3 => Just(None),
+                        1 => (0.92f64..1.08, 0.92f64..1.08).prop_map(Some)
+                    ],
                 ),
             )
                 .prop_map(
@@ -117,6 +124,7 @@ fn case() -> impl Strategy<Value = Case> {
                             sharpen,
                             depth,
                             bands,
+                            lateral_colour,
                         ),
                     )| {
                         // Noise reduction takes mosaics of whole 2x2 blocks.
@@ -144,6 +152,7 @@ fn case() -> impl Strategy<Value = Case> {
                             method,
                             knee,
                             distortion,
+                            lateral_colour,
                             look,
                             chroma,
                             sharpen,
@@ -357,6 +366,17 @@ fn outputs(c: &Case) -> Vec<Vec<(&'static str, Vec<u32>)>> {
         .unwrap()
         .fitted(c.w, c.h)
     });
+    // Lateral colour: scales from 1 at the centre to the case's at the corner, linear in r^2.
+    let lca = c.lateral_colour.map(|(red, blue)| {
+        let curve = |corner: f64| core::array::from_fn(|k| 1.0 + (corner - 1.0) * k as f64 / 16.0);
+        let centre = [(c.w as f64 - 1.0) / 2.0, (c.h as f64 - 1.0) / 2.0];
+        LateralColour::new(c.w, c.h, centre, None, &curve(red), &curve(blue)).unwrap()
+    });
+    let distortion = match (distortion, lca) {
+        (Some(lens), Some(lca)) => Some(lens.with_lateral_colour(lca)),
+        (None, Some(lca)) => Some(LensDistortion::lateral_colour_only(lca)),
+        (lens, None) => lens,
+    };
     let config = IspConfig {
         dpc: DpcConfig {
             static_defects: &defects,
@@ -448,6 +468,7 @@ fn planar_schedule_matches_the_engine_on_a_wide_frame() {
         method: Method::Mhc,
         knee: 1.0,
         distortion: None,
+        lateral_colour: None,
         look: Look::Neutral,
         chroma: 0.0,
         sharpen: 0.0,
@@ -504,6 +525,21 @@ fn planar_schedule_matches_the_engine_on_a_wide_frame() {
             "distortion",
             Case {
                 distortion: Some(-0.2),
+                ..base.clone()
+            },
+        ),
+        (
+            "lateral colour",
+            Case {
+                lateral_colour: Some((1.06, 0.95)),
+                ..base.clone()
+            },
+        ),
+        (
+            "lateral colour and distortion",
+            Case {
+                distortion: Some(-0.2),
+                lateral_colour: Some((0.94, 1.05)),
                 ..base.clone()
             },
         ),

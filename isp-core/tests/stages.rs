@@ -8,6 +8,7 @@ use isp_core::colour::{self, LINEAR_SRGB_TO_XYZ};
 use isp_core::distortion::{BrownConrady, LensDistortion};
 use isp_core::dpc::{correct_row, Defect, DefectMap, DpcConfig};
 use isp_core::frame::{RawFrame, RgbView, RgbViewMut};
+use isp_core::lateral_colour::{LateralColour, NODES};
 use isp_core::lsc::LensShading;
 use isp_core::pipeline::{scratch_len, FixedPipeline, IspConfig};
 use isp_core::srgb::{self, exact_code8, EncodeLut, EncodeThresholds8};
@@ -646,6 +647,102 @@ fn distortion_correction_straightens_a_distorted_scene() {
     assert!(
         worst_uncorrected > 0.2,
         "the lens bent too little to test: {worst_uncorrected}"
+    );
+}
+
+/// Lateral colour corrected in the lens's resampling: alone, it is the stage's own correction
+/// bit for bit; composed with the barrel lens, a scene photographed with red imaged 3 % larger
+/// and blue 3 % smaller than green (in the lens's distorted image) comes back straight and
+/// aligned in every colour, where distortion correction alone leaves red and blue off.
+#[test]
+fn lateral_colour_is_corrected_in_the_same_resampling() {
+    let (w, h) = (96, 64);
+    let centre = [(w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0];
+    let (red, blue) = (1.03, 0.97);
+    let lca = LateralColour::new(w, h, centre, None, &[red; NODES], &[blue; NODES]).unwrap();
+
+    // Alone: the stage's whole-frame correction, bit for bit, in integers and in floats.
+    let samples: Vec<u16> = (0..w * h * 3).map(|i| ((i * 7919) % 4096) as u16).collect();
+    let only = LensDistortion::lateral_colour_only(lca);
+    assert!(!only.is_identity() && only.model().is_identity());
+    let mut by_stage = vec![0u16; w * h * 3];
+    let mut by_lens = vec![0u16; w * h * 3];
+    let src = RgbView::new(&samples, w, h, 3 * w).unwrap();
+    lca.correct(
+        &src,
+        &mut RgbViewMut::new(&mut by_stage, w, h, 3 * w).unwrap(),
+    )
+    .unwrap();
+    only.correct(
+        &src,
+        &mut RgbViewMut::new(&mut by_lens, w, h, 3 * w).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(by_lens, by_stage);
+    assert_ne!(by_lens, samples, "the scales should move red and blue");
+    let floats: Vec<f32> = samples.iter().map(|&v| f32::from(v) / 4095.0).collect();
+    let (mut by_stage, mut by_lens) = (vec![0.0f32; w * h * 3], vec![0.0f32; w * h * 3]);
+    let src = RgbView::new(&floats, w, h, 3 * w).unwrap();
+    lca.correct(
+        &src,
+        &mut RgbViewMut::new(&mut by_stage, w, h, 3 * w).unwrap(),
+    )
+    .unwrap();
+    only.correct(
+        &src,
+        &mut RgbViewMut::new(&mut by_lens, w, h, 3 * w).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(by_lens, by_stage);
+
+    // Composed with distortion.
+    let lens = strong_lens(w, h);
+    let [fx, fy, cx, cy] = lens.camera();
+    let scene = |x: f64, y: f64| 0.5 + 0.4 * (x / 7.0).sin() * (y / 5.0).cos();
+    // Green's photo at distorted position p; red and blue show green's image scaled.
+    let green_at = |px: f64, py: f64| {
+        let ideal = lens
+            .model()
+            .undistort([(px - cx) / fx, (py - cy) / fy])
+            .unwrap();
+        scene(fx * ideal[0] + cx, fy * ideal[1] + cy)
+    };
+    let mut photo = vec![0.0f32; w * h * 3];
+    for y in 0..h {
+        for x in 0..w {
+            let (dx, dy) = (x as f64 - centre[0], y as f64 - centre[1]);
+            let i = 3 * (y * w + x);
+            photo[i] = green_at(centre[0] + dx / red, centre[1] + dy / red) as f32;
+            photo[i + 1] = green_at(x as f64, y as f64) as f32;
+            photo[i + 2] = green_at(centre[0] + dx / blue, centre[1] + dy / blue) as f32;
+        }
+    }
+    let worst = |corrector: &LensDistortion| {
+        let mut out = vec![0.0f32; w * h * 3];
+        corrector
+            .correct(
+                &RgbView::new(&photo, w, h, 3 * w).unwrap(),
+                &mut RgbViewMut::new(&mut out, w, h, 3 * w).unwrap(),
+            )
+            .unwrap();
+        let mut worst = [0.0f64; 3];
+        // Away from the edge, where blue, imaged smaller, has no picture to read from.
+        for y in 4..h - 4 {
+            for x in 4..w - 4 {
+                let truth = scene(x as f64, y as f64);
+                for c in 0..3 {
+                    worst[c] = worst[c].max((f64::from(out[3 * (y * w + x) + c]) - truth).abs());
+                }
+            }
+        }
+        worst
+    };
+    let both = worst(&lens.with_lateral_colour(lca));
+    let distortion_alone = worst(&lens);
+    assert!(both.iter().all(|&e| e < 0.01), "corrected: {both:?}");
+    assert!(
+        distortion_alone[0] > 0.05 && distortion_alone[2] > 0.05 && distortion_alone[1] < 0.01,
+        "distortion alone: {distortion_alone:?}"
     );
 }
 

@@ -37,6 +37,7 @@ use isp_core::denoise::Search;
 use isp_core::distortion::{BrownConrady, LensDistortion};
 use isp_core::dpc::{Defect, DpcConfig};
 use isp_core::frame::{RawFrame, RgbViewMut};
+use isp_core::lateral_colour::{LateralColour, NODES};
 use isp_core::lsc::LensShading;
 use isp_core::noise::NoiseProfile;
 use isp_core::pipeline::{FixedPipeline, FloatPipeline, IspConfig};
@@ -130,6 +131,9 @@ pub struct Stages {
     pub sharpen: bool,
     /// Barrel distortion corrected (k1 = -0.15).
     pub distortion: bool,
+    /// Lateral colour corrected (red 1 % larger than green at the corners, blue 1 % smaller),
+    /// in the distortion's resampling when that is on.
+    pub lateral_colour: bool,
 }
 
 /// One configuration the firmware runs.
@@ -159,6 +163,12 @@ pub enum Case {
         /// The case's name.
         name: &'static str,
     },
+    /// The ISP's lens corrections derived from a prescription at start-up
+    /// ([`lens_corrections_checksum`]): what a camera does once when a lens is fitted.
+    LensCorrections {
+        /// The case's name.
+        name: &'static str,
+    },
 }
 
 const PLAIN: Stages = Stages {
@@ -172,6 +182,7 @@ const PLAIN: Stages = Stages {
     tone: false,
     sharpen: false,
     distortion: false,
+    lateral_colour: false,
 };
 /// The camera's configuration: every stage the demo camera runs
 /// (`docs/bench/demo-camera.toml`), as `camsim demo` develops.
@@ -197,7 +208,7 @@ const fn fixed(name: &'static str, method: Method, stages: Stages) -> Case {
 }
 
 /// Every case, in the order the firmware runs them.
-pub const CASES: [Case; 23] = [
+pub const CASES: [Case; 26] = [
     fixed("fixed-nearest", Method::Nearest, PLAIN),
     fixed("fixed-bilinear", Method::Bilinear, PLAIN),
     fixed("fixed-mhc", Method::Mhc, PLAIN),
@@ -273,6 +284,23 @@ pub const CASES: [Case; 23] = [
             ..PLAIN
         },
     ),
+    fixed(
+        "fixed-mhc+lateral-colour",
+        Method::Mhc,
+        Stages {
+            lateral_colour: true,
+            ..PLAIN
+        },
+    ),
+    fixed(
+        "fixed-mhc-distortion+lateral-colour",
+        Method::Mhc,
+        Stages {
+            distortion: true,
+            lateral_colour: true,
+            ..PLAIN
+        },
+    ),
     Case::Pipeline {
         name: "fixed-mhc-camera-16bit",
         path: Path::Fixed,
@@ -307,13 +335,19 @@ pub const CASES: [Case; 23] = [
     Case::Optics {
         name: "optics-fixed-focus-dof",
     },
+    Case::LensCorrections {
+        name: "optics-tessar-corrections",
+    },
 ];
 
 impl Case {
     /// The case's name.
     pub const fn name(&self) -> &'static str {
         match self {
-            Self::Pipeline { name, .. } | Self::CApi { name } | Self::Optics { name } => name,
+            Self::Pipeline { name, .. }
+            | Self::CApi { name }
+            | Self::Optics { name }
+            | Self::LensCorrections { name } => name,
         }
     }
 }
@@ -342,6 +376,22 @@ pub fn config(
             )
         }
         false => None,
+    };
+    let distortion = match (stages.lateral_colour, distortion) {
+        (false, lens) => lens,
+        (true, lens) => {
+            let centre = [(width as f64 - 1.0) / 2.0, (height as f64 - 1.0) / 2.0];
+            // Scales from 1 at the centre to 1.01 (red) and 0.99 (blue) at the corners,
+            // linear in r^2 as a lens's lateral colour mostly is.
+            let curve = |k: usize, corner: f64| 1.0 + (corner - 1.0) * k as f64 / 16.0;
+            let red: [f64; NODES] = core::array::from_fn(|k| curve(k, 1.01));
+            let blue: [f64; NODES] = core::array::from_fn(|k| curve(k, 0.99));
+            let lca = LateralColour::new(width, height, centre, None, &red, &blue)?;
+            Some(match lens {
+                Some(lens) => lens.with_lateral_colour(lca),
+                None => LensDistortion::lateral_colour_only(lca),
+            })
+        }
     };
     let config = IspConfig {
         dpc: DpcConfig {
@@ -564,22 +614,27 @@ pub fn run_case(
     if let Case::CApi { .. } = case {
         return c_api_case(width, height, buffers, clock);
     }
-    let Case::Pipeline {
-        path,
-        method,
-        stages,
-        out_bits,
-        ..
-    } = *case
-    else {
-        let t0 = clock();
-        let checksum = optics_checksum()?;
-        let t1 = clock();
-        return Ok(Outcome {
-            checksum,
-            construct_ticks: 0,
-            run_ticks: t1.wrapping_sub(t0),
-        });
+    let (path, method, stages, out_bits) = match *case {
+        Case::Pipeline {
+            path,
+            method,
+            stages,
+            out_bits,
+            ..
+        } => (path, method, stages, out_bits),
+        _ => {
+            let t0 = clock();
+            let checksum = match case {
+                Case::LensCorrections { .. } => lens_corrections_checksum(width, height)?,
+                _ => optics_checksum()?,
+            };
+            let t1 = clock();
+            return Ok(Outcome {
+                checksum,
+                construct_ticks: 0,
+                run_ticks: t1.wrapping_sub(t0),
+            });
+        }
     };
     fill_mosaic(buffers.mosaic, width, height)?;
     let pixels = width * height;
@@ -819,6 +874,96 @@ pub fn optics_checksum() -> Result<u32, OpticsError> {
             let point = focus / 2 + Dioptres::from_num(0.2);
             hash.u64(fixed_point::circle_of_confusion(f, n, focus, point)?.to_bits());
         }
+    }
+    Ok(hash.finish())
+}
+
+/// Laikin's Tessar f/4.5 (`camsim/lenses/tessar-f4.5.toml`, with its source): radius,
+/// thickness, clear semi-diameter and glass per surface, mm, the stop fifth.
+const TESSAR: [(f64, f64, f64, Option<&str>); 8] = [
+    (33.85566, 7.08914, 16.36, Some("N-SK15")),
+    (-253.37516, 5.21716, 15.2, None),
+    (-53.12918, 2.286, 10.71, Some("F2")),
+    (30.79242, 1.80086, 9.51, None),
+    (0.0, 3.89636, 9.079866538191485, None),
+    (-191.0207, 2.286, 10.94, Some("K10")),
+    (33.0454, 8.60806, 13.0, Some("N-SK15")),
+    (-38.65372, 86.4235, 14.12, None),
+];
+/// The Tessar's half field of view, degrees (its file's `field_deg`).
+const TESSAR_HALF_FIELD_DEG: f64 = 20.5;
+/// The wavelength the ISP's green is taken at (camsim's renderer's green), nm.
+const GREEN_NM: f64 = 540.0;
+/// Red's and blue's wavelengths (the renderer's), nm.
+const RED_NM: f64 = 647.5;
+const BLUE_NM: f64 = 442.5;
+/// Radii of the relative-illumination curve: 9 from the centre to the corner.
+const SHADING_RADII: usize = 9;
+
+/// The ISP's corrections for the Tessar on a `width` x `height` sensor that its field
+/// fills diagonally, derived from the prescription as a camera would at start-up: the
+/// Brown-Conrady fit to its chief rays (and the distortion mesh's window), red's and blue's
+/// lateral-colour scales at the stage's 17 nodes, and relative illumination at 9 radii (a
+/// 16 x 16 grid over the rear element per radius). The checksum of every value's bits.
+pub fn lens_corrections_checksum(width: usize, height: usize) -> Result<u32, CaseError> {
+    use optics_core::prescription::glass::{catalogue_glass, Medium, LAMBDA_D_NM};
+    use optics_core::prescription::{Prescription, Shape, Surface};
+    let mut surfaces = [Surface::new(Shape::Flat, 1.0, 1.0, Medium::Air); 8];
+    for (s, &(radius, thickness, semi, glass)) in surfaces.iter_mut().zip(&TESSAR) {
+        let medium = match glass {
+            Some(name) => catalogue_glass(name)?.medium(),
+            None => Medium::Air,
+        };
+        *s = match radius {
+            0.0 => Surface::aperture_stop(semi, thickness),
+            r => Surface::new(Shape::sphere_radius(r), semi, thickness, medium),
+        };
+    }
+    let lens = Prescription::new(&surfaces)?;
+    let half = TESSAR_HALF_FIELD_DEG.to_radians();
+    // Fit beyond the corner's field, so the mesh's outer nodes are fitted too.
+    let max_field = half * 1.4;
+    let paraxial = lens.paraxial(GREEN_NM)?;
+    let [k1, k2, k3] = lens.fit_brown_conrady(max_field, GREEN_NM)?;
+    let (w, h) = (width as f64, height as f64);
+    let pitch = 2.0 * paraxial.efl * libm::tan(half) / libm::hypot(w, h);
+    let centre = [(w - 1.0) / 2.0, (h - 1.0) / 2.0];
+    let focal_px = paraxial.efl / pitch;
+    let model = BrownConrady::from_opencv([k1, k2, 0.0, 0.0, k3])?;
+    let lens_mesh =
+        LensDistortion::new(focal_px, focal_px, centre[0], centre[1], model)?.fitted(width, height);
+    let lca = LateralColour::from_curve(width, height, centre, None, |r| {
+        let scale = |nm| {
+            lens.lateral_colour_scale(r * pitch, nm, GREEN_NM, LAMBDA_D_NM, max_field)
+                .ok()
+                .flatten()
+        };
+        Some([scale(RED_NM)?, scale(BLUE_NM)?])
+    })?;
+    let mesh = lens_mesh.with_lateral_colour(lca);
+    let mut hash = Fnv1a::default();
+    for k in [k1, k2, k3] {
+        hash.u64(k.to_bits());
+    }
+    hash.u64(mesh.window_rows(width, height) as u64);
+    hash.u64(lca.reach_rows() as u64);
+    for k in 0..NODES {
+        let r = lca.node_radius(k).unwrap_or(0.0);
+        hash.u64(r.to_bits());
+        for p in [[0, 0], [width - 1, height - 1]] {
+            for c in 0..2 {
+                for q in lca.source_position(c, p[0], p[1]) {
+                    hash.u64(q as u64);
+                }
+            }
+        }
+    }
+    let mut scratch = surfaces;
+    let corner = libm::hypot(w, h) / 2.0 * pitch;
+    for i in 0..SHADING_RADII {
+        let r = corner * i as f64 / (SHADING_RADII - 1) as f64;
+        let fall_off = lens.illumination_at_height(r, paraxial.bfl, GREEN_NM, 16, &mut scratch)?;
+        hash.u64(fall_off.map_or(u64::MAX, f64::to_bits));
     }
     Ok(hash.finish())
 }

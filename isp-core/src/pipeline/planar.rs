@@ -1480,6 +1480,8 @@ struct Distorter<'s> {
     /// node each).
     nodes: &'s mut [i32],
     held: usize,
+    /// Rows red and blue read beyond green's (lateral colour), 0 without.
+    reach: i64,
 }
 
 impl Distorter<'_> {
@@ -1508,7 +1510,7 @@ impl Distorter<'_> {
         }
         interpolate_rows(bits, top, bottom, v, row);
         let mut bounds = (i64::MAX, i64::MIN);
-        self.lens.node_row_bounds(row, h, &mut bounds);
+        self.lens.node_row_bounds(row, h, self.reach, &mut bounds);
         if bounds.0 > bounds.1 {
             out[..3 * w].fill(P::default());
             return Ok(());
@@ -1537,6 +1539,20 @@ impl Distorter<'_> {
         };
         let ring: &[P] = ring;
         let mask = (1usize << bits) - 1;
+        if let Some(lca) = self.lens.lateral_colour() {
+            let slots = self.slots;
+            let read =
+                |xi: usize, yi: usize, c: usize| ring[(yi % slots) * 3 * w + c * w + index(xi)];
+            for u in 0..w {
+                let q = row_position(bits, &row[2 * (u >> bits)..], u & mask);
+                let acc = LensDistortion::colour_pixel(lca, q, w, h, read);
+                let i = index(u);
+                for (c, a) in acc.into_iter().enumerate() {
+                    out[c * w + i] = P::scaled_down(a, 10);
+                }
+            }
+            return Ok(());
+        }
         for u in 0..w {
             let mut acc = [P::Acc::default(); 3];
             if let Some(q) = row_position(bits, &row[2 * (u >> bits)..], u & mask) {
@@ -1694,6 +1710,7 @@ pub(super) fn run<A: Planar, O: OutputSample, const L: usize>(
                 window: RowWindow::default(),
                 nodes,
                 held: usize::MAX,
+                reach: lens.colour_reach(w, h),
             };
             emit_rows::<A, O>(
                 path,
