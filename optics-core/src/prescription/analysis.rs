@@ -26,7 +26,7 @@ impl<T: Real> Prescription<'_, T> {
 
     /// [`Self::aimed_ray`] with the entrance pupil already known (a pupil grid computes it
     /// once, not per ray).
-    fn aim_at(
+    pub(super) fn aim_at(
         &self,
         ep: &Pupil<T>,
         field_rad: T,

@@ -15,7 +15,8 @@
 //!   the same quantity the renderer's lens camera weights its samples by, so a shading grid
 //!   made from it flattens a render through the lens.
 //!
-//! All are on the plane a camera's film sits on: the paraxial focal plane at `reference_nm`.
+//! All are on the plane a camera's film sits on: the paraxial focal plane at `reference_nm`,
+//! or, for [`Prescription::fit_brown_conrady_centroid`], the plane the caller's film is on.
 
 use super::trace::{Ray, Traced};
 use super::{Prescription, Surface};
@@ -24,6 +25,17 @@ use crate::{OpticsError, Real, Result};
 
 /// Chief rays the distortion fit samples over the field.
 pub const FIT_SAMPLES: usize = 64;
+
+/// A radial distortion model with the focal length it goes with
+/// ([`Prescription::fit_brown_conrady_centroid`]): OpenCV's `fx = fy = focal_length_mm /
+/// pixel pitch` and radial coefficients `k = [k1, k2, k3]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RadialFit<T> {
+    /// The focal length the fit's image scale implies, mm.
+    pub focal_length_mm: T,
+    /// `k1, k2, k3`.
+    pub k: [T; 3],
+}
 
 impl<T: Real> Prescription<'_, T> {
     /// The field angle (radians, in `[0, max_field_rad]`) whose chief ray at `wavelength_nm`
@@ -75,6 +87,98 @@ impl<T: Real> Prescription<'_, T> {
     /// `wavelength_nm`: `h / (efl tan(field)) = 1 + k1 x^2 + k2 x^4 + k3 x^6`, `x = tan(field)`.
     /// The tangential terms are 0 for a centred lens.
     pub fn fit_brown_conrady(&self, max_field_rad: T, wavelength_nm: T) -> Result<[T; 3]> {
+        self.fit_radial::<3>(max_field_rad, wavelength_nm, |field| {
+            self.chief_height(field, wavelength_nm, wavelength_nm)
+        })
+    }
+
+    /// [`Prescription::fit_brown_conrady`] to where a distant point's light lands on a sensor
+    /// `image_distance_mm` behind the last vertex ([`Prescription::centroid_height`], an
+    /// `n x n` pupil grid per field), not to its chief ray, with the focal length fitted too
+    /// (`h = f x (1 + k1 x^2 + k2 x^4 + k3 x^6)`): off the paraxial focal plane, or with
+    /// spherical aberration, a point's light is off its chief ray in proportion to the field
+    /// even near the axis, a change of scale, which a calibrated camera's `fx` holds. What a
+    /// dot chart measures: where coma or a vignetted pupil moves a point's light off its
+    /// chief ray (an f/1 singlet's by several of its pixels), this is the fit that puts the
+    /// dots back.
+    pub fn fit_brown_conrady_centroid(
+        &self,
+        max_field_rad: T,
+        wavelength_nm: T,
+        image_distance_mm: T,
+        n: usize,
+    ) -> Result<RadialFit<T>> {
+        let [m, a1, a2, a3] = self.fit_radial::<4>(max_field_rad, wavelength_nm, |field| {
+            self.centroid_height(field, wavelength_nm, image_distance_mm, n)
+        })?;
+        if m <= T::zero() {
+            return Err(OpticsError::InvalidParameter {
+                name: "image_distance_mm",
+                allowed: "a plane where the image is upright",
+            });
+        }
+        let efl = self.paraxial(wavelength_nm)?.efl;
+        Ok(RadialFit {
+            focal_length_mm: checked(m * efl)?,
+            k: [checked(a1 / m)?, checked(a2 / m)?, checked(a3 / m)?],
+        })
+    }
+
+    /// The mean height (mm) at which the rays of a distant point at `field_rad` through an
+    /// `n x n` grid over the paraxial entrance pupil's disk meet the plane `image_distance_mm`
+    /// behind the last vertex, at `wavelength_nm`: the centroid of its image (equal flux per
+    /// ray, as from a point at infinity). `None` when no ray passes.
+    pub fn centroid_height(
+        &self,
+        field_rad: T,
+        wavelength_nm: T,
+        image_distance_mm: T,
+        n: usize,
+    ) -> Result<Option<T>> {
+        if !(2..=super::analysis::MAX_GRID).contains(&n) {
+            return Err(OpticsError::InvalidParameter {
+                name: "n",
+                allowed: "2..=257",
+            });
+        }
+        if !image_distance_mm.is_finite() {
+            return Err(OpticsError::InvalidParameter {
+                name: "image_distance_mm",
+                allowed: "finite",
+            });
+        }
+        let ep = self.paraxial(wavelength_nm)?.entrance_pupil;
+        let (mut sum, mut arrived) = (T::zero(), 0usize);
+        let step = T::lit(2.0) / T::lit(n as f64);
+        for i in 0..n {
+            for j in 0..n {
+                let px = -T::one() + (T::lit(i as f64) + T::lit(0.5)) * step;
+                let py = -T::one() + (T::lit(j as f64) + T::lit(0.5)) * step;
+                if px * px + py * py > T::one() {
+                    continue;
+                }
+                let ray = self.aim_at(&ep, field_rad, [px, py], wavelength_nm)?;
+                if let Traced::Image { point, .. } = self.trace_to_plane(&ray, image_distance_mm)? {
+                    sum = sum + point[1];
+                    arrived += 1;
+                }
+            }
+        }
+        (arrived > 0)
+            .then(|| checked(sum / T::lit(arrived as f64)))
+            .transpose()
+    }
+
+    /// The radial fit of `height(field)` (mm, `None` where the lens passes nothing) over
+    /// [`FIT_SAMPLES`] fields up to `max_field_rad`, against `efl tan(field)` at
+    /// `wavelength_nm`: `h / (efl x) - 1 = k1 x^2 + k2 x^4 + k3 x^6` for `N = 3`, and
+    /// `h / (efl x) = m + a1 x^2 + a2 x^4 + a3 x^6` (the scale `m` fitted too) for `N = 4`.
+    fn fit_radial<const N: usize>(
+        &self,
+        max_field_rad: T,
+        wavelength_nm: T,
+        mut height: impl FnMut(T) -> Result<Option<T>>,
+    ) -> Result<[T; N]> {
         if !(max_field_rad > T::zero() && max_field_rad < T::lit(1.5)) {
             return Err(OpticsError::InvalidParameter {
                 name: "max_field_rad",
@@ -83,35 +187,41 @@ impl<T: Real> Prescription<'_, T> {
         }
         let efl = self.paraxial(wavelength_nm)?.efl;
         // Normal equations of the 3-term fit, accumulated without storing the samples.
-        let mut a = [[T::zero(); 3]; 3];
-        let mut b = [T::zero(); 3];
+        let mut a = [[T::zero(); N]; N];
+        let mut b = [T::zero(); N];
         let mut used = 0;
         for i in 1..=FIT_SAMPLES {
             let field = max_field_rad * T::lit(i as f64 / FIT_SAMPLES as f64);
-            let Some(h) = self.chief_height(field, wavelength_nm, wavelength_nm)? else {
+            let Some(h) = height(field)? else {
                 continue;
             };
             let x = field.tan();
             let x2 = x * x;
-            let basis = [x2, x2 * x2, x2 * x2 * x2];
-            let y = h / (efl * x) - T::one();
-            for r in 0..3 {
-                for c in 0..3 {
+            // Powers x^2.. for the fixed scale, x^0.. for the fitted one.
+            let first = if N == 3 { x2 } else { T::one() };
+            let mut basis = [first; N];
+            for k in 1..N {
+                basis[k] = basis[k - 1] * x2;
+            }
+            let offset = if N == 3 { T::one() } else { T::zero() };
+            let y = h / (efl * x) - offset;
+            for r in 0..N {
+                for c in 0..N {
                     a[r][c] = a[r][c] + basis[r] * basis[c];
                 }
                 b[r] = b[r] + basis[r] * y;
             }
             used += 1;
         }
-        if used < 3 {
+        if used < N {
             return Err(OpticsError::InvalidParameter {
                 name: "max_field_rad",
                 allowed: "a field the lens passes chief rays over",
             });
         }
-        let k = solve3(a, b).ok_or(OpticsError::InvalidParameter {
+        let k = solve(a, b).ok_or(OpticsError::InvalidParameter {
             name: "max_field_rad",
-            allowed: "a field wide enough to fit three coefficients",
+            allowed: "a field wide enough to fit the coefficients",
         })?;
         for v in k {
             checked(v)?;
@@ -225,10 +335,10 @@ fn projected_solid_angle<T: Real>(
 
 /// Solves the 3x3 system `a x = b` by Gaussian elimination with partial pivoting; `None` when
 /// it is singular.
-fn solve3<T: Real>(mut a: [[T; 3]; 3], mut b: [T; 3]) -> Option<[T; 3]> {
-    for col in 0..3 {
+fn solve<T: Real, const N: usize>(mut a: [[T; N]; N], mut b: [T; N]) -> Option<[T; N]> {
+    for col in 0..N {
         let mut pivot = col;
-        for row in col + 1..3 {
+        for row in col + 1..N {
             if a[row][col].abs() > a[pivot][col].abs() {
                 pivot = row;
             }
@@ -247,10 +357,10 @@ fn solve3<T: Real>(mut a: [[T; 3]; 3], mut b: [T; 3]) -> Option<[T; 3]> {
             *rhs = *rhs - f * pivot_b;
         }
     }
-    let mut x = [T::zero(); 3];
-    for row in (0..3).rev() {
+    let mut x = [T::zero(); N];
+    for row in (0..N).rev() {
         let mut s = b[row];
-        for c in row + 1..3 {
+        for c in row + 1..N {
             s = s - a[row][c] * x[c];
         }
         x[row] = s / a[row][row];
