@@ -1,8 +1,9 @@
 //! Renders through the shipped lenses (`camsim/lenses/`): a uniform white sky seen through each
 //! falls off towards the corners as optics-core's relative illumination derived from the
-//! prescription says, so a shading grid made from it flattens the render (issue 58: at most
-//! 1 % left; the wide angle is at 1.6 %), and the falloff it removes is printed beside what is
-//! left. A grid of glowing dots through each lens measures the distortion and the lateral
+//! prescription says, so isp-core's shading grid made from it (`lsc::radial_gains`) flattens
+//! the render (issue 58: at most 1 % left; not yet on the 100-degree wide angle, whose frame
+//! corners sit on the edge of its image circle), and the falloff it removes is printed beside
+//! what is left. A grid of glowing dots through each lens measures the distortion and the lateral
 //! colour before and after the corrections derived from the prescription (a Brown-Conrady fit
 //! to where each field's light lands on the film, with its focal length, and the
 //! lateral-colour scales, applied in isp-core's one resampling), at 1024 samples a pixel so
@@ -14,6 +15,7 @@ use host_tracer::lens_file::{LensFile, DEFAULT_PBRT_ABBE};
 use host_tracer::tracer::render::{render, RenderSettings};
 use host_tracer::tracer::scene::SensorSize;
 use host_tracer::tracer::scene_file;
+use isp_core::lsc::{radial_gains, LensShading};
 use optics_core::prescription::glass::LAMBDA_D_NM;
 
 /// The renderer's green (RGB scenes trace green at 540 nm): the corrections' reference.
@@ -86,50 +88,92 @@ fn a_white_sky_through_each_lens_falls_off_as_its_derived_illumination() {
             let k = t as usize;
             tables[c][k] + (tables[c][k + 1] - tables[c][k]) * (t - k as f64)
         };
+        // A 17 x 13 shading grid per channel from the derived illumination, in isp-core's
+        // format, as a camera's shading table is made.
+        let (gw, gh) = (17, 13);
+        let centre_px = [(f64::from(w) - 1.0) / 2.0, (f64::from(h) - 1.0) / 2.0];
+        let grids: Vec<Vec<u16>> = (0..3)
+            .map(|c| {
+                let mut gains = vec![0u16; gw * gh * 4];
+                radial_gains(
+                    &mut gains,
+                    gw,
+                    gh,
+                    w as usize,
+                    h as usize,
+                    centre_px,
+                    |_, r| Some(ri(c, r * pitch) / ri(c, 0.0)),
+                )
+                .unwrap();
+                gains
+            })
+            .collect();
+        let shading: Vec<LensShading> = grids
+            .iter()
+            .map(|g| LensShading::new(gw, gh, g).unwrap())
+            .collect();
         // 8 x 8 blocks, every channel, so the sample noise averages down to about 0.15 %.
         // Shading is relative to the centre, per channel (the renderer scales every channel
         // by the d line's centre; a channel's own centre differs by a fraction of a percent,
         // which white balance takes), so both sides are taken relative to the middle blocks.
         let block = |bx: u32, by: u32| {
-            let (mut got, mut want) = ([0.0f64; 3], [0.0f64; 3]);
+            let (mut got, mut want, mut fixed) = ([0.0f64; 3], [0.0f64; 3], [0.0f64; 3]);
             for y in by * 8..by * 8 + 8 {
                 for x in bx * 8..bx * 8 + 8 {
                     let r = (f64::from(x) + 0.5 - f64::from(w) / 2.0)
                         .hypot(f64::from(y) + 0.5 - f64::from(h) / 2.0)
                         * pitch;
                     for c in 0..3 {
-                        got[c] += f64::from(image.rgb[3 * (y * w + x) as usize + c]);
+                        let v = f64::from(image.rgb[3 * (y * w + x) as usize + c]);
+                        got[c] += v;
                         want[c] += ri(c, r);
+                        let gain =
+                            shading[c].gain_f32(x as usize, y as usize, w as usize, h as usize);
+                        fixed[c] += v * f64::from(gain);
                     }
                 }
             }
-            (got, want)
+            (got, want, fixed)
         };
-        let mut centre = ([0.0f64; 3], [0.0f64; 3]);
+        let mut centre = ([0.0f64; 3], [0.0f64; 3], [0.0f64; 3]);
         for (bx, by) in [(2, 1), (3, 1), (2, 2), (3, 2)] {
-            let (g, v) = block(bx, by);
+            let (g, v, f) = block(bx, by);
             for c in 0..3 {
                 centre.0[c] += g[c];
                 centre.1[c] += v[c];
+                centre.2[c] += f[c];
             }
         }
-        let (mut worst_before, mut worst_after) = (0.0f64, 0.0f64);
+        let (mut worst_before, mut worst_after, mut worst_grid) = (0.0f64, 0.0f64, 0.0f64);
+        // The grid's worst over blocks that get at least a quarter of the centre's light
+        // (away from the edge of a wide angle's image circle, where 1 / fall-off is too steep
+        // for any grid of gains to follow).
+        let mut worst_grid_lit = 0.0f64;
         for by in 0..h / 8 {
             for bx in 0..w / 8 {
-                let (got, want) = block(bx, by);
+                let (got, want, fixed) = block(bx, by);
                 for c in 0..3 {
                     let shading = got[c] / centre.0[c] * 4.0;
                     let derived = want[c] / centre.1[c] * 4.0;
                     worst_before = worst_before.max((shading - 1.0).abs());
                     worst_after = worst_after.max((shading / derived - 1.0).abs());
+                    let grid_error = (fixed[c] / centre.2[c] * 4.0 - 1.0).abs();
+                    worst_grid = worst_grid.max(grid_error);
+                    if derived >= 0.25 {
+                        worst_grid_lit = worst_grid_lit.max(grid_error);
+                    }
                 }
             }
         }
         println!(
-            "{}: sky falls off by up to {:.1} %; corrected by the derived illumination, {:.2} % is left",
+            "{}: sky falls off by up to {:.1} %; divided by the derived illumination, {:.2} % is \
+             left; through isp-core's 17 x 13 shading grid made from it, {:.2} % ({:.2} % where \
+             a quarter of the light or more arrives)",
             file.name,
             100.0 * worst_before,
-            100.0 * worst_after
+            100.0 * worst_after,
+            100.0 * worst_grid,
+            100.0 * worst_grid_lit
         );
         // The issue's bound is 1 %. The 100-degree wide angle's corners, at an eighth of the
         // centre's light, are left 1.6 % off: the derived illumination's grid resolves the
@@ -141,6 +185,24 @@ fn a_white_sky_through_each_lens_falls_off_as_its_derived_illumination() {
             0.01
         };
         assert!(worst_after <= bound, "{}: {worst_after}", file.name);
+        // The grid holds the 1 % bound on the five lenses whose image circle covers the frame.
+        // The wide angle's frame corners lie on the edge of its image circle, where the light
+        // falls from a seventh to nothing within a block and a 17 x 13 grid of gains cannot
+        // follow 1 / fall-off (38 % left where a quarter of the light arrives): not met; held
+        // to less than half the fall-off it started with.
+        if bound == 0.01 {
+            assert!(
+                worst_grid <= bound,
+                "{}: the grid leaves {worst_grid}",
+                file.name
+            );
+        } else {
+            assert!(
+                worst_grid_lit < 0.5 * worst_before,
+                "{}: the grid leaves {worst_grid_lit}",
+                file.name
+            );
+        }
     }
 }
 

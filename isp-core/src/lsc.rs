@@ -64,6 +64,84 @@ pub(crate) fn split(i: usize, n: usize, nodes: usize) -> (usize, u32, u32) {
     (idx, rem, den as u32)
 }
 
+/// Fills `gains` (a `grid_w x grid_h` grid's, four CFA positions a node, as
+/// [`LensShading::new`] reads them) with the gains that undo a radial fall-off over a
+/// `width x height` frame: `fall_off(position, r)` is the light at `r` pixels from `centre`
+/// against the centre's, for the colour at that position of the 2x2 block (so a caller maps
+/// positions to colours with its CFA pattern), or `None` (or 0) where the lens sends no
+/// light. Each node's gain is `1 / fall_off` at the node's pixel, in Q4.12, at most the
+/// format's largest (just under 16). A node beyond the image circle takes the gain of the
+/// furthest radius inside it on its way to the centre (searched in 64 steps; 1 if none), so
+/// the pixels between it and the last lit node, which do get light, are interpolated
+/// between like gains, not pulled down towards 1. How a prescription's relative illumination
+/// (optics-core's `Prescription::illumination_at_height`) becomes a shading grid.
+///
+/// ```
+/// use isp_core::lsc::{radial_gains, LensShading};
+/// // cos^4 fall-off of a lens whose corner is 30 degrees off axis on a 64 x 48 frame.
+/// let mut gains = [0u16; 9 * 7 * 4];
+/// let corner = (31.5f64).hypot(23.5);
+/// radial_gains(&mut gains, 9, 7, 64, 48, [31.5, 23.5], |_, r| {
+///     Some((r / corner * 30f64.to_radians().tan()).atan().cos().powi(4))
+/// })
+/// .unwrap();
+/// let lsc = LensShading::new(9, 7, &gains).unwrap();
+/// // The corner is lifted by 1 / cos^4(30 degrees) = 16 / 9.
+/// assert!((lsc.gain_f32(0, 0, 64, 48) - 16.0 / 9.0).abs() < 1e-3);
+/// ```
+pub fn radial_gains(
+    gains: &mut [u16],
+    grid_w: usize,
+    grid_h: usize,
+    width: usize,
+    height: usize,
+    centre: [f64; 2],
+    mut fall_off: impl FnMut(usize, f64) -> Option<f64>,
+) -> Result<(), IspError> {
+    if !(2..=MAX_GRID_SIDE).contains(&grid_w) || !(2..=MAX_GRID_SIDE).contains(&grid_h) {
+        return Err(IspError::InvalidParameter {
+            name: "lens shading grid",
+            allowed: "2..=64 nodes each way",
+        });
+    }
+    if gains.len() != grid_w * grid_h * 4 {
+        return Err(IspError::InvalidParameter {
+            name: "lens shading gains",
+            allowed: "grid_w * grid_h * 4 values",
+        });
+    }
+    if width == 0 || height == 0 || !centre.iter().all(|c| c.is_finite()) {
+        return Err(IspError::InvalidParameter {
+            name: "radial shading frame",
+            allowed: "a non-empty frame and a finite centre",
+        });
+    }
+    let largest = f64::from(u16::MAX) / f64::from(ONE_Q12);
+    for gy in 0..grid_h {
+        for gx in 0..grid_w {
+            // The node's pixel, as the grid places it (the corner nodes on the corner pixels).
+            let x = (gx * (width - 1)) as f64 / (grid_w - 1) as f64;
+            let y = (gy * (height - 1)) as f64 / (grid_h - 1) as f64;
+            let r = libm::hypot(x - centre[0], y - centre[1]);
+            for position in 0..4 {
+                let mut gain = 1.0;
+                for step in 0..64 {
+                    match fall_off(position, r * f64::from(64 - step) / 64.0) {
+                        Some(f) if f > 0.0 && f.is_finite() => {
+                            gain = (1.0 / f).min(largest);
+                            break;
+                        }
+                        _ => continue,
+                    }
+                }
+                gains[(gy * grid_w + gx) * 4 + position] =
+                    libm::round(gain * f64::from(ONE_Q12)) as u16;
+            }
+        }
+    }
+    Ok(())
+}
+
 impl<'a> LensShading<'a> {
     /// A checked grid: sides in `2..=MAX_GRID_SIDE` and exactly `grid_w * grid_h * 4` gains.
     pub fn new(grid_w: usize, grid_h: usize, gains: &'a [u16]) -> Result<Self, IspError> {

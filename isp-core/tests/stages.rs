@@ -983,3 +983,31 @@ fn denoise_fixed_path_tracks_float() {
         );
     }
 }
+
+/// A radial shading grid: gains are 1 / fall-off at each node's pixel; nodes beyond the image
+/// circle take the gain found on the way in; bad grids and frames are refused.
+#[test]
+fn radial_shading_gains_undo_a_fall_off() {
+    use isp_core::lsc::radial_gains;
+    let (w, h, gw, gh) = (65, 49, 9, 7);
+    let mut gains = vec![0u16; gw * gh * 4];
+    // Light falls linearly to half at 30 pixels and stops beyond 35.
+    let fall_off = |_: usize, r: f64| (r <= 35.0).then(|| 1.0 - r / 60.0);
+    radial_gains(&mut gains, gw, gh, w, h, [32.0, 24.0], fall_off).unwrap();
+    let lsc = LensShading::new(gw, gh, &gains).unwrap();
+    // The centre node, on pixel (32, 24): gain 1. The node on (40, 24), 8 px out: 60 / 52.
+    assert_eq!(lsc.gain_f32(32, 24, w, h), 1.0);
+    assert!((lsc.gain_f32(40, 24, w, h) - 60.0 / 52.0).abs() < 1e-3);
+    // The corner node, 40 px out, is dark: it takes a gain from just inside 35 px.
+    let corner = lsc.gain_f32(0, 0, w, h);
+    assert!(
+        corner > 60.0 / 26.0 && corner <= 60.0 / 25.0 + 1e-3,
+        "{corner}"
+    );
+    for (gw, gh, len) in [(1, 7, 28), (9, 7, 10), (65, 7, 65 * 28)] {
+        let mut g = vec![0u16; len];
+        assert!(radial_gains(&mut g, gw, gh, w, h, [32.0, 24.0], fall_off).is_err());
+    }
+    assert!(radial_gains(&mut gains, gw, gh, 0, h, [32.0, 24.0], fall_off).is_err());
+    assert!(radial_gains(&mut gains, gw, gh, w, h, [f64::NAN, 24.0], fall_off).is_err());
+}
