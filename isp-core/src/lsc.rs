@@ -98,18 +98,8 @@ pub fn radial_gains(
     centre: [f64; 2],
     mut fall_off: impl FnMut(usize, f64) -> Option<f64>,
 ) -> Result<(), IspError> {
-    if !(2..=MAX_GRID_SIDE).contains(&grid_w) || !(2..=MAX_GRID_SIDE).contains(&grid_h) {
-        return Err(IspError::InvalidParameter {
-            name: "lens shading grid",
-            allowed: "2..=64 nodes each way",
-        });
-    }
-    if gains.len() != grid_w * grid_h * 4 {
-        return Err(IspError::InvalidParameter {
-            name: "lens shading gains",
-            allowed: "grid_w * grid_h * 4 values",
-        });
-    }
+    // The grid's own checks.
+    LensShading::new(grid_w, grid_h, gains)?;
     if width == 0 || height == 0 || !centre.iter().all(|c| c.is_finite()) {
         return Err(IspError::InvalidParameter {
             name: "radial shading frame",

@@ -7,7 +7,7 @@ use isp_core::ccm::Calibration;
 use isp_core::colour::{self, LINEAR_SRGB_TO_XYZ};
 use isp_core::distortion::{BrownConrady, LensDistortion};
 use isp_core::dpc::{correct_row, Defect, DefectMap, DpcConfig};
-use isp_core::frame::{RawFrame, RgbView, RgbViewMut};
+use isp_core::frame::{RawFrame, RgbView, RgbViewMut, Sample};
 use isp_core::lateral_colour::{LateralColour, NODES};
 use isp_core::lsc::LensShading;
 use isp_core::pipeline::{scratch_len, FixedPipeline, IspConfig};
@@ -665,34 +665,32 @@ fn lateral_colour_is_corrected_in_the_same_resampling() {
     let samples: Vec<u16> = (0..w * h * 3).map(|i| ((i * 7919) % 4096) as u16).collect();
     let only = LensDistortion::lateral_colour_only(lca);
     assert!(!only.is_identity() && only.model().is_identity());
-    let mut by_stage = vec![0u16; w * h * 3];
-    let mut by_lens = vec![0u16; w * h * 3];
-    let src = RgbView::new(&samples, w, h, 3 * w).unwrap();
-    lca.correct(
-        &src,
-        &mut RgbViewMut::new(&mut by_stage, w, h, 3 * w).unwrap(),
-    )
-    .unwrap();
-    only.correct(
-        &src,
-        &mut RgbViewMut::new(&mut by_lens, w, h, 3 * w).unwrap(),
-    )
-    .unwrap();
+    fn both<T: Sample>(
+        lca: &LateralColour,
+        only: &LensDistortion,
+        samples: &[T],
+        (w, h): (usize, usize),
+    ) -> (Vec<T>, Vec<T>) {
+        let (mut by_stage, mut by_lens) =
+            (vec![T::default(); w * h * 3], vec![T::default(); w * h * 3]);
+        let src = RgbView::new(samples, w, h, 3 * w).unwrap();
+        lca.correct(
+            &src,
+            &mut RgbViewMut::new(&mut by_stage, w, h, 3 * w).unwrap(),
+        )
+        .unwrap();
+        only.correct(
+            &src,
+            &mut RgbViewMut::new(&mut by_lens, w, h, 3 * w).unwrap(),
+        )
+        .unwrap();
+        (by_stage, by_lens)
+    }
+    let (by_stage, by_lens) = both(&lca, &only, &samples, (w, h));
     assert_eq!(by_lens, by_stage);
     assert_ne!(by_lens, samples, "the scales should move red and blue");
     let floats: Vec<f32> = samples.iter().map(|&v| f32::from(v) / 4095.0).collect();
-    let (mut by_stage, mut by_lens) = (vec![0.0f32; w * h * 3], vec![0.0f32; w * h * 3]);
-    let src = RgbView::new(&floats, w, h, 3 * w).unwrap();
-    lca.correct(
-        &src,
-        &mut RgbViewMut::new(&mut by_stage, w, h, 3 * w).unwrap(),
-    )
-    .unwrap();
-    only.correct(
-        &src,
-        &mut RgbViewMut::new(&mut by_lens, w, h, 3 * w).unwrap(),
-    )
-    .unwrap();
+    let (by_stage, by_lens) = both(&lca, &only, &floats, (w, h));
     assert_eq!(by_lens, by_stage);
 
     // Composed with distortion.

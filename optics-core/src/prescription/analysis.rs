@@ -16,6 +16,16 @@ use crate::{OpticsError, Real, Result};
 /// The largest pupil grid side: `n x n` rays per field point.
 pub const MAX_GRID: usize = 257;
 
+/// The points of an `n x n` grid of cell centres over the square `[-1, 1]^2` that lie on the
+/// unit disk: a normalised pupil's rays.
+pub(super) fn pupil_points<T: Real>(n: usize) -> impl Iterator<Item = [T; 2]> {
+    let step = T::lit(2.0) / T::lit(n as f64);
+    let at = move |i: usize| -T::one() + (T::lit(i as f64) + T::lit(0.5)) * step;
+    (0..n)
+        .flat_map(move |i| (0..n).map(move |j| [at(i), at(j)]))
+        .filter(|&[px, py]| px * px + py * py <= T::one())
+}
+
 impl<T: Real> Prescription<'_, T> {
     /// The ray of field angle `field_rad` (0 to below pi/2) through the normalised entrance
     /// pupil point `(px, py)` at `wavelength_nm`, starting 1 mm before the first surface's rim.
@@ -145,23 +155,15 @@ impl<T: Real> Prescription<'_, T> {
         let (mut inside, mut arrived) = (0usize, 0usize);
         // Sums about the chief ray's landing point: the spot is small beside the image height.
         let (mut sx, mut sy, mut sxx) = (T::zero(), T::zero(), T::zero());
-        let step = T::lit(2.0) / T::lit(n as f64);
-        for i in 0..n {
-            for j in 0..n {
-                let px = -T::one() + (T::lit(i as f64) + T::lit(0.5)) * step;
-                let py = -T::one() + (T::lit(j as f64) + T::lit(0.5)) * step;
-                if px * px + py * py > T::one() {
-                    continue;
-                }
-                inside += 1;
-                let ray = self.aim_at(&ep, field_rad, [px, py], wavelength_nm)?;
-                if let Traced::Image { point, .. } = self.trace_to_plane(&ray, bfl)? {
-                    arrived += 1;
-                    let (dx, dy) = (point[0] - anchor[0], point[1] - anchor[1]);
-                    sx = sx + dx;
-                    sy = sy + dy;
-                    sxx = sxx + dx * dx + dy * dy;
-                }
+        for pupil in pupil_points::<T>(n) {
+            inside += 1;
+            let ray = self.aim_at(&ep, field_rad, pupil, wavelength_nm)?;
+            if let Traced::Image { point, .. } = self.trace_to_plane(&ray, bfl)? {
+                arrived += 1;
+                let (dx, dy) = (point[0] - anchor[0], point[1] - anchor[1]);
+                sx = sx + dx;
+                sy = sy + dy;
+                sxx = sxx + dx * dx + dy * dy;
             }
         }
         let rms = if arrived > 0 {

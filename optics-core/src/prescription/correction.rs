@@ -149,19 +149,11 @@ impl<T: Real> Prescription<'_, T> {
         }
         let ep = self.paraxial(wavelength_nm)?.entrance_pupil;
         let (mut sum, mut arrived) = (T::zero(), 0usize);
-        let step = T::lit(2.0) / T::lit(n as f64);
-        for i in 0..n {
-            for j in 0..n {
-                let px = -T::one() + (T::lit(i as f64) + T::lit(0.5)) * step;
-                let py = -T::one() + (T::lit(j as f64) + T::lit(0.5)) * step;
-                if px * px + py * py > T::one() {
-                    continue;
-                }
-                let ray = self.aim_at(&ep, field_rad, [px, py], wavelength_nm)?;
-                if let Traced::Image { point, .. } = self.trace_to_plane(&ray, image_distance_mm)? {
-                    sum = sum + point[1];
-                    arrived += 1;
-                }
+        for pupil in super::analysis::pupil_points::<T>(n) {
+            let ray = self.aim_at(&ep, field_rad, pupil, wavelength_nm)?;
+            if let Traced::Image { point, .. } = self.trace_to_plane(&ray, image_distance_mm)? {
+                sum = sum + point[1];
+                arrived += 1;
             }
         }
         (arrived > 0)
