@@ -36,6 +36,10 @@ use isp_core::ccm::Calibration;
 use isp_core::colour;
 use isp_core::demosaic::Method;
 use isp_core::dpc::{Defect, DpcConfig};
+use isp_core::lens_correction::{
+    DistortionFit, IlluminationTable, LensCorrectionError, LensCorrections, SensorFraming,
+    RENDER_COLOURS_NM,
+};
 use isp_core::lsc::LensShading;
 use isp_core::metrics::{angular_error_deg, mean_max, psnr};
 use isp_core::pipeline::IspConfig;
@@ -187,6 +191,9 @@ pub struct DemoReport {
     pub lens: Option<(String, f64)>,
     /// The share of camera samples the lens stopped (vignetting).
     pub vignetted_fraction: f64,
+    /// The corrections derived from the real lens's prescription (`corrected.png` is developed
+    /// with them), if the scene renders through one.
+    pub lens_correction: Option<LensCorrectionReport>,
     /// Sensor simulation time, s.
     pub sensor_s: f64,
     /// Exposure time used, s.
@@ -230,6 +237,97 @@ pub struct DemoReport {
     pub noise_profile: serde_json::Value,
     /// Files written.
     pub files: Vec<String>,
+}
+
+/// What `camsim demo --lens` derived from the lens's prescription and developed
+/// `corrected.png` with ([`lens_corrections`]).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct LensCorrectionReport {
+    /// The focal length the distortion model goes with, mm.
+    pub focal_length_mm: f64,
+    /// OpenCV's radial coefficients `[k1, k2, k3]` (camera matrix `fx = fy = focal length /
+    /// pitch`, the centre at the frame's).
+    pub k: [f64; 3],
+    /// Red's and blue's largest scale against green (lateral colour), as `[red, blue]`.
+    pub lateral_colour_scale: [f64; 2],
+    /// The largest gain of the lens's shading grid (its vignetting at the corners).
+    pub shading_max_gain: f64,
+    /// Deriving them, ms.
+    pub derive_ms: f64,
+}
+
+/// The ISP's corrections for the real lens a scene renders through, derived from its
+/// prescription as rendered (stopped down, focused) on a `width` x `height` frame with the
+/// CFA `pattern`: the distortion mesh with the lateral colour composed in (a Brown-Conrady
+/// fit to where each field's light lands on the film, 33 x 33 pupil points a field, fitted
+/// out to 1.4 times the corner's field) and the lens's shading grid (`grid` nodes, Q4.12, from
+/// relative illumination over a 64 x 64 rear-element grid at 49 radii a colour). The
+/// channels are taken at the renderer's RGB wavelengths
+/// ([`isp_core::lens_correction::RENDER_COLOURS_NM`]). `None` for a thin lens.
+pub fn lens_corrections(
+    scene: &SceneDesc,
+    width: usize,
+    height: usize,
+    pattern: isp_core::CfaPattern,
+    grid: (usize, usize),
+) -> Result<Option<(LensCorrections, Vec<u16>, LensCorrectionReport)>, Error> {
+    let started = Instant::now();
+    let Some(rendered) = scene.camera.lens_as_rendered(width as u32, height as u32)? else {
+        return Ok(None);
+    };
+    let fail = |e: LensCorrectionError| {
+        Error::Message(format!(
+            "deriving the corrections for {}: {e}",
+            rendered.name
+        ))
+    };
+    let lens = optics_core::prescription::Prescription::new(&rendered.surfaces)
+        .map_err(|e| fail(e.into()))?;
+    let framing =
+        SensorFraming::new(width, height, rendered.pitch_mm, rendered.film_mm).map_err(fail)?;
+    let efl = lens
+        .paraxial(RENDER_COLOURS_NM[1])
+        .map_err(|e| fail(e.into()))?
+        .efl;
+    let max_field = (1.4 * framing.corner_mm() / efl).atan().min(1.4);
+    let fix = LensCorrections::derive(
+        &lens,
+        &framing,
+        max_field,
+        DistortionFit::Centroids { pupil_points: 33 },
+    )
+    .map_err(fail)?;
+    let mut scratch = rendered.surfaces.clone();
+    let table: IlluminationTable =
+        IlluminationTable::derive(&lens, &framing, 64, &mut scratch).map_err(fail)?;
+    let mut gains = vec![0u16; grid.0 * grid.1 * 4];
+    table
+        .fill_grid(&framing, pattern.block(), &mut gains, grid.0, grid.1)
+        .map_err(fail)?;
+    let lca = fix.distortion.lateral_colour();
+    let mut scale = [1.0f64; 2];
+    if let Some(lca) = lca {
+        for k in 0..isp_core::lateral_colour::NODES {
+            for (c, s) in scale.iter_mut().enumerate() {
+                let v = lca.node_scale(c, k).unwrap_or(1.0);
+                if (v - 1.0).abs() > (*s - 1.0).abs() {
+                    *s = v;
+                }
+            }
+        }
+    }
+    let shading_max_gain = gains
+        .iter()
+        .map(|&g| f64::from(g) / 4096.0)
+        .fold(1.0, f64::max);
+    let report = LensCorrectionReport {
+        focal_length_mm: fix.focal_length_mm,
+        k: fix.k,
+        lateral_colour_scale: scale,
+        shading_max_gain,
+        derive_ms: started.elapsed().as_secs_f64() * 1e3,
+    };
+    Ok(Some((fix, gains, report)))
 }
 
 fn stage_map<S: serde::Serializer>(stages: &[(String, f64)], s: S) -> Result<S::Ok, S::Error> {
@@ -985,6 +1083,43 @@ pub fn run(
         },
     )?;
 
+    // With a real lens: develop again with the corrections derived from its prescription
+    // (distortion and lateral colour in one resampling, its vignetting in the shading grid
+    // on top of the sensor's), beside the uncorrected development.
+    let lens_fix = lens_corrections(scene, w, h, capture.raw.pattern, captured.shading_size)?;
+    if let Some((fix, lens_gains, _)) = &lens_fix {
+        let (gw, gh) = captured.shading_size;
+        let gains: Vec<u16> = match &captured.shading_grid {
+            Some(sensor_gains) => sensor_gains
+                .iter()
+                .zip(lens_gains)
+                .map(|(&a, &b)| ((u32::from(a) * u32::from(b) + 2048) >> 12).min(65535) as u16)
+                .collect(),
+            None => lens_gains.clone(),
+        };
+        let mut config = captured.isp_config(args.demosaic, denoise, chroma_denoise)?;
+        config.lsc = Some(LensShading::new(gw, gh, &gains).map_err(|e| Error::in_stage("lsc", e))?);
+        config.distortion = Some(fix.distortion);
+        let (_, corrected) = develop::execute(raw_back.into(), &config, false, 8, run)?;
+        raw_formats::image::write(&out("corrected.png"), &to8(&corrected))?;
+        let mut side = Vec::with_capacity(w * h * 6);
+        for y in 0..h {
+            for img in [&float_rgb.data, &corrected.data] {
+                side.extend_from_slice(&img[3 * w * y..3 * w * (y + 1)]);
+            }
+        }
+        raw_formats::image::write(
+            &out("lens_comparison.png"),
+            &Image {
+                width: 2 * w,
+                height: h,
+                channels: 3,
+                bits: 8,
+                data: side,
+            },
+        )?;
+    }
+
     // 6. Measure.
     step(6, "measuring");
     let psnr_db = psnr(&float_rgb.data, truth8, 255.0);
@@ -1012,7 +1147,7 @@ pub fn run(
         let (m, x) = mean_max(&errors);
         (Some(m), Some(x))
     };
-    let names = [
+    let mut names = vec![
         "raw.dng",
         "raw.png",
         "srgb.png",
@@ -1024,6 +1159,9 @@ pub fn run(
         "report.json",
         "report.txt",
     ];
+    if lens_fix.is_some() {
+        names.extend(["corrected.png", "lens_comparison.png"]);
+    }
     let report = DemoReport {
         scene: scene.name.clone(),
         camera: response.name().to_owned(),
@@ -1042,6 +1180,7 @@ pub fn run(
             )
         }),
         vignetted_fraction: captured.vignetted_fraction,
+        lens_correction: lens_fix.map(|(_, _, report)| report),
         sensor_s: captured.sensor_s,
         exposure_s: capture.exposure_s,
         iso: args.iso,
@@ -1118,6 +1257,21 @@ fn report_text(r: &DemoReport, total_s: f64, stages: &[&str], noise: &develop::N
             100.0 * r.vignetted_fraction
         );
     }
+    if let Some(c) = &r.lens_correction {
+        t += &format!(
+            "  lens corrections  derived in {:.0} ms: distortion k = [{:.5}, {:.5}, {:.5}] at \
+             f = {:.3} mm; lateral colour: red x {:.5}, blue x {:.5} at most; shading gain up \
+             to {:.3} (corrected.png)\n",
+            c.derive_ms,
+            c.k[0],
+            c.k[1],
+            c.k[2],
+            c.focal_length_mm,
+            c.lateral_colour_scale[0],
+            c.lateral_colour_scale[1],
+            c.shading_max_gain
+        );
+    }
     t += &format!("  {}\n", noise.to_text());
     t += &format!("  ISP stages: {}\n", stages.join(" -> "));
     for (name, ms) in &r.isp_stage_ms {
@@ -1183,6 +1337,7 @@ mod tests {
             render_s: 0.0,
             lens: None,
             vignetted_fraction: 0.0,
+            lens_correction: None,
             sensor_s: 0.0,
             exposure_s: 0.0,
             iso: 100.0,

@@ -206,6 +206,24 @@ fn demo_and_render_go_through_a_lens_file() {
     let vignetted = v["vignetted_fraction"].as_f64().unwrap();
     assert!(vignetted > 0.01 && vignetted < 0.9, "{vignetted}");
     assert!(out_dir.join("srgb.png").exists());
+    // The corrections derived from the prescription, and the frame developed with them.
+    let fix = &v["lens_correction"];
+    let f = fix["focal_length_mm"].as_f64().unwrap();
+    // The Tessar's 101.5 mm, scaled by the focusing move (the film further back for the
+    // chart at 1.3 m).
+    assert!(f > 101.0 && f < 125.0, "{fix}");
+    assert!(fix["k"].as_array().unwrap().len() == 3, "{fix}");
+    let gain = fix["shading_max_gain"].as_f64().unwrap();
+    assert!(gain > 1.01 && gain < 2.0, "{fix}");
+    let [red, blue] = [0, 1].map(|c| fix["lateral_colour_scale"][c].as_f64().unwrap());
+    assert!(
+        red != 1.0 && blue != 1.0 && (red - 1.0).abs() < 0.01,
+        "{fix}"
+    );
+    let plain = std::fs::read(out_dir.join("srgb.png")).unwrap();
+    let corrected = std::fs::read(out_dir.join("corrected.png")).unwrap();
+    assert!(plain != corrected);
+    assert!(out_dir.join("lens_comparison.png").exists());
 
     // A scene file naming the lens; its path is relative to the scene's folder.
     let scene = out_dir.join("scene.toml");

@@ -158,6 +158,13 @@ impl LateralColour {
         })
     }
 
+    /// Colour `c`'s (0 red, 1 blue) scale at node `k`, as stored (Q20); `None` for a colour
+    /// or node beyond the last.
+    pub fn node_scale(&self, c: usize, k: usize) -> Option<f64> {
+        let q = *self.scales.get(c)?.get(k)?;
+        Some(q as f64 / f64::from(1u32 << SCALE_BITS))
+    }
+
     /// The centre, pixels (as given, rounded to 1/32 pixel).
     pub fn centre(&self) -> [f64; 2] {
         self.centre.map(|c| c as f64 / SUBPIXELS as f64)

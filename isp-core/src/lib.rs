@@ -36,6 +36,7 @@ pub mod dpc;
 pub mod frame;
 pub mod highlights;
 pub mod lateral_colour;
+pub mod lens_correction;
 pub mod lsc;
 mod math;
 pub mod metrics;

@@ -85,6 +85,50 @@ pub struct CameraLens {
 }
 
 impl CameraLens {
+    /// The surfaces as the camera uses them: the stop's clear semi-diameter narrowed to the
+    /// f-number asked for (the design's when none is), and that f-number. An f-number wider
+    /// than the design's is refused.
+    pub fn stopped_surfaces(&self) -> Result<(Vec<Surface<f64>>, f64)> {
+        let file = &self.file;
+        let lens = file.prescription()?;
+        let (_, design_n) = self.design()?;
+        let f_number = self.f_number.unwrap_or(design_n);
+        if !(f_number.is_finite() && f_number >= design_n * (1.0 - 1e-9)) {
+            return Err(Error::out_of_range(
+                "camera: f_number",
+                f_number,
+                format!("at least the lens's widest, f/{design_n:.3}"),
+            ));
+        }
+        let mut surfaces = file.surfaces.clone();
+        surfaces[lens.stop_index()].semi_diameter *= design_n / f_number;
+        Ok((surfaces, f_number))
+    }
+
+    /// The film's distance behind the last vertex, mm, for `surfaces` (as
+    /// [`CameraLens::stopped_surfaces`] gives them) focused at `focus_mm` from the camera's
+    /// position (the front principal plane; infinite: at infinity): the d line's back focus
+    /// plus the focusing move (the whole lens moved away from the film).
+    pub fn film_distance_mm(&self, surfaces: &[Surface<f64>], focus_mm: f64) -> Result<f64> {
+        let lens = Prescription::new(surfaces).map_err(optics("lens"))?;
+        let p = lens.paraxial(LAMBDA_D_NM).map_err(optics("lens"))?;
+        let extension = if focus_mm.is_infinite() {
+            0.0
+        } else {
+            let object = focus_mm - p.front_principal;
+            lens.focus_extension(object, LAMBDA_D_NM, p.efl)
+                .map_err(optics("focus distance"))?
+        };
+        let film_distance = p.bfl + extension;
+        if film_distance.is_nan() || film_distance <= 0.0 {
+            return Err(Error::lens(format!(
+                "{}: its focal plane lies inside the lens (back focus {:.3} mm)",
+                self.file.name, p.bfl
+            )));
+        }
+        Ok(film_distance)
+    }
+
     /// The lens's paraxial focal length and design f-number at the d line.
     pub fn design(&self) -> Result<(f64, f64)> {
         let p = self
@@ -124,42 +168,18 @@ impl LensRig {
     /// Stops the lens down, focuses it and precomputes the exit pupil's bounds.
     pub fn new(setup: LensSetup<'_>) -> Result<Self> {
         let file = &setup.lens.file;
-        let lens = file.prescription()?;
-        let (efl, design_n) = setup.lens.design()?;
+        let (efl, _) = setup.lens.design()?;
         if efl <= 0.0 {
             return Err(Error::lens(format!(
                 "{}: a camera lens must converge (its focal length is {efl:.3} mm)",
                 file.name
             )));
         }
-        let f_number = setup.lens.f_number.unwrap_or(design_n);
-        if !(f_number.is_finite() && f_number >= design_n * (1.0 - 1e-9)) {
-            return Err(Error::out_of_range(
-                "camera: f_number",
-                f_number,
-                format!("at least the lens's widest, f/{design_n:.3}"),
-            ));
-        }
-        let mut surfaces = file.surfaces.clone();
-        let stop = lens.stop_index();
-        surfaces[stop].semi_diameter *= design_n / f_number;
+        let (surfaces, f_number) = setup.lens.stopped_surfaces()?;
         let lens = Prescription::new(&surfaces).map_err(optics("lens"))?;
         let p = lens.paraxial(LAMBDA_D_NM).map_err(optics("lens"))?;
         let origin_z = p.front_principal;
-        let extension = if setup.focus_mm.is_infinite() {
-            0.0
-        } else {
-            let object = setup.focus_mm - origin_z;
-            lens.focus_extension(object, LAMBDA_D_NM, efl)
-                .map_err(optics("focus distance"))?
-        };
-        let film_distance = p.bfl + extension;
-        if film_distance.is_nan() || film_distance <= 0.0 {
-            return Err(Error::lens(format!(
-                "{}: its focal plane lies inside the lens (back focus {:.3} mm)",
-                file.name, p.bfl
-            )));
-        }
+        let film_distance = setup.lens.film_distance_mm(&surfaces, setup.focus_mm)?;
         let k = surfaces.len();
         let mut reversed = surfaces.clone();
         lens.reversed_into(&mut reversed).map_err(optics("lens"))?;

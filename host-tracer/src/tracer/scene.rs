@@ -211,6 +211,33 @@ impl CameraDesc {
         self.use_lens(LensFile::read(path, crate::lens_file::DEFAULT_PBRT_ABBE)?)
     }
 
+    /// The real lens as a `width` x `height` render uses it, for deriving the ISP's
+    /// corrections (isp-core's `lens_correction`): its surfaces stopped down as rendered, the
+    /// pixel pitch (mm) and the film's distance behind the last vertex (mm, focused where
+    /// the camera is). `None` for a thin lens.
+    pub fn lens_as_rendered(
+        &self,
+        width: u32,
+        height: u32,
+    ) -> crate::Result<Option<LensAsRendered>> {
+        let Some(lens) = &self.lens else {
+            return Ok(None);
+        };
+        let (surfaces, f_number) = lens.stopped_surfaces()?;
+        let film_mm = lens.film_distance_mm(
+            &surfaces,
+            f64::from(self.focus_distance() / self.units_per_mm),
+        )?;
+        let pitch_mm = f64::from(self.sensor_mm(width, height).x) / f64::from(width.max(1));
+        Ok(Some(LensAsRendered {
+            name: lens.file.name.clone(),
+            surfaces,
+            f_number,
+            pitch_mm,
+            film_mm,
+        }))
+    }
+
     /// Focus distance in scene units.
     pub fn focus_distance(&self) -> f32 {
         self.focus_distance
@@ -358,6 +385,21 @@ pub struct CameraRig<'a> {
     /// The real lens, when the camera has one: [`CameraRig::sample`] is then not used, the
     /// renderer draws a wavelength per sample and asks the lens.
     pub lens: Option<LensRig>,
+}
+
+/// A real lens as a render uses it ([`CameraDesc::lens_as_rendered`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LensAsRendered {
+    /// The lens file's name.
+    pub name: String,
+    /// The surfaces, the stop narrowed to the f-number rendered at.
+    pub surfaces: Vec<optics_core::prescription::Surface<f64>>,
+    /// That f-number.
+    pub f_number: f64,
+    /// Pixel pitch, mm.
+    pub pitch_mm: f64,
+    /// The film's distance behind the last vertex, mm.
+    pub film_mm: f64,
 }
 
 /// Storage a bitmap aperture's sampling table lives in while a camera uses it.
