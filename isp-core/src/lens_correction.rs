@@ -213,18 +213,15 @@ impl LensCorrections {
         // A node whose scale optics-core cannot give (an error, or beyond the field the lens
         // passes) takes the last one found: LateralColour::from_curve's rule for `None`.
         let lca = LateralColour::from_curve(w, h, [cx, cy], None, |r_px| {
-            let scale = |nm| {
-                lens.lateral_colour_scale(
-                    r_px * framing.pitch_mm,
-                    nm,
-                    green_nm,
-                    LAMBDA_D_NM,
-                    max_field_rad,
-                )
-                .ok()
-                .flatten()
-            };
-            Some([scale(red_nm)?, scale(blue_nm)?])
+            lens.lateral_colour_scales(
+                r_px * framing.pitch_mm,
+                [red_nm, blue_nm],
+                green_nm,
+                LAMBDA_D_NM,
+                max_field_rad,
+            )
+            .ok()
+            .flatten()
         })?;
         let distortion = LensDistortion::new(focal_px, focal_px, cx, cy, model)?
             .with_lateral_colour(lca)

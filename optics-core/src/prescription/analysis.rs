@@ -83,7 +83,20 @@ impl<T: Real> Prescription<'_, T> {
         reference_nm: T,
     ) -> Result<Option<T>> {
         let bfl = self.paraxial(reference_nm)?.bfl;
-        let ray = self.aimed_ray(field_rad, [T::zero(); 2], wavelength_nm)?;
+        let ep = self.paraxial(wavelength_nm)?.entrance_pupil;
+        self.chief_height_with(&ep, field_rad, wavelength_nm, bfl)
+    }
+
+    /// [`Self::chief_height`] with the entrance pupil at `wavelength_nm` and the plane (`bfl`
+    /// behind the last vertex) already known: a search over the field computes them once.
+    pub(super) fn chief_height_with(
+        &self,
+        ep: &Pupil<T>,
+        field_rad: T,
+        wavelength_nm: T,
+        bfl: T,
+    ) -> Result<Option<T>> {
+        let ray = self.aim_at(ep, field_rad, [T::zero(); 2], wavelength_nm)?;
         match self.trace_to_plane(&ray, bfl)? {
             Traced::Image { point, .. } => checked(point[1]).map(Some),
             Traced::Lost { .. } => Ok(None),

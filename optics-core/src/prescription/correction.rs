@@ -64,7 +64,11 @@ impl<T: Real> Prescription<'_, T> {
         if height_mm == T::zero() {
             return Ok(Some(T::zero()));
         }
-        let Some(top) = self.chief_height(max_field_rad, wavelength_nm, reference_nm)? else {
+        // The pupil and the plane once, not per step (each is a paraxial analysis).
+        let bfl = self.paraxial(reference_nm)?.bfl;
+        let ep = self.paraxial(wavelength_nm)?.entrance_pupil;
+        let height = |field| self.chief_height_with(&ep, field, wavelength_nm, bfl);
+        let Some(top) = height(max_field_rad)? else {
             return Ok(None);
         };
         if top < height_mm {
@@ -73,7 +77,7 @@ impl<T: Real> Prescription<'_, T> {
         let (mut lo, mut hi) = (T::zero(), max_field_rad);
         for _ in 0..60 {
             let mid = (lo + hi) * T::lit(0.5);
-            match self.chief_height(mid, wavelength_nm, reference_nm)? {
+            match height(mid)? {
                 Some(h) if h < height_mm => lo = mid,
                 Some(_) => hi = mid,
                 None => return Ok(None),
@@ -235,6 +239,28 @@ impl<T: Real> Prescription<'_, T> {
         focal_plane_nm: T,
         max_field_rad: T,
     ) -> Result<Option<T>> {
+        Ok(self
+            .lateral_colour_scales(
+                height_mm,
+                [wavelength_nm],
+                reference_nm,
+                focal_plane_nm,
+                max_field_rad,
+            )?
+            .map(|[s]| s))
+    }
+
+    /// [`Self::lateral_colour_scale`] for several colours at once (red and blue against
+    /// green, say): the reference's field and chief ray are found once. `None` beyond the
+    /// field the lens passes or when any colour's chief ray is lost.
+    pub fn lateral_colour_scales<const N: usize>(
+        &self,
+        height_mm: T,
+        wavelengths_nm: [T; N],
+        reference_nm: T,
+        focal_plane_nm: T,
+        max_field_rad: T,
+    ) -> Result<Option<[T; N]>> {
         let small = max_field_rad * T::lit(1e-3);
         let field =
             match self.field_at_height(height_mm, reference_nm, focal_plane_nm, max_field_rad)? {
@@ -242,12 +268,18 @@ impl<T: Real> Prescription<'_, T> {
                 Some(_) => small,
                 None => return Ok(None),
             };
-        let reference = self.chief_height(field, reference_nm, focal_plane_nm)?;
-        let colour = self.chief_height(field, wavelength_nm, focal_plane_nm)?;
-        match (colour, reference) {
-            (Some(c), Some(r)) if r > T::zero() => checked(c / r).map(Some),
-            _ => Ok(None),
+        let reference = match self.chief_height(field, reference_nm, focal_plane_nm)? {
+            Some(r) if r > T::zero() => r,
+            _ => return Ok(None),
+        };
+        let mut scales = [T::zero(); N];
+        for (scale, &nm) in scales.iter_mut().zip(&wavelengths_nm) {
+            match self.chief_height(field, nm, focal_plane_nm)? {
+                Some(c) => *scale = checked(c / reference)?,
+                None => return Ok(None),
+            }
         }
+        Ok(Some(scales))
     }
 
     /// Relative illumination at image radius `height_mm` on the plane `image_distance_mm`
