@@ -1009,3 +1009,62 @@ fn radial_shading_gains_undo_a_fall_off() {
     assert!(radial_gains(&mut gains, gw, gh, 0, h, [32.0, 24.0], fall_off).is_err());
     assert!(radial_gains(&mut gains, gw, gh, w, h, [f64::NAN, 24.0], fall_off).is_err());
 }
+
+#[test]
+fn lens_corrections_are_derived_for_the_sensor_behind_the_lens() {
+    use isp_core::lens_correction::{
+        DistortionFit, IlluminationTable, LensCorrections, SensorFraming, RENDER_COLOURS_NM,
+    };
+    use optics_core::prescription::glass::{Medium, LAMBDA_D_NM};
+    use optics_core::prescription::{Prescription, Shape, Surface};
+    // A biconvex singlet of a dispersive model glass with the stop 10 mm in front of it: it
+    // distorts, its colours differ in size, and its rim vignettes the field's edge.
+    let glass = Medium::Model { nd: 1.6, vd: 35.0 };
+    let surfaces = [
+        Surface::aperture_stop(4.0, 10.0),
+        Surface::new(Shape::sphere_radius(60.0), 5.0, 4.0, glass),
+        Surface::new(Shape::sphere_radius(-60.0), 5.0, 48.0, Medium::Air),
+    ];
+    let lens = Prescription::new(&surfaces).unwrap();
+    let film = lens.paraxial(LAMBDA_D_NM).unwrap().bfl;
+    // Bad sensors are errors, not panics.
+    assert!(SensorFraming::new(1, 48, 0.1, film).is_err());
+    assert!(SensorFraming::new(64, 48, 0.0, film).is_err());
+    assert!(SensorFraming::new(64, 48, 0.1, f64::NAN).is_err());
+    let framing = SensorFraming::new(64, 48, 0.2, film).unwrap();
+    assert!(framing.with_colours_nm([650.0, -1.0, 450.0]).is_err());
+
+    // The chief-ray fit goes with the paraxial focal length at green.
+    let fix = LensCorrections::derive(&lens, &framing, 0.3, DistortionFit::ChiefRays).unwrap();
+    let efl = lens.paraxial(RENDER_COLOURS_NM[1]).unwrap().efl;
+    assert_eq!(fix.focal_length_mm, efl);
+    assert!(fix.k[0] != 0.0, "{:?}", fix.k);
+    // Red's and blue's images differ in size, each within a percent of green's.
+    let lca = fix.distortion.lateral_colour().unwrap();
+    let (red, blue) = (
+        lca.node_scale(0, 16).unwrap(),
+        lca.node_scale(1, 16).unwrap(),
+    );
+    assert!(red != blue && (red - 1.0).abs() < 0.01 && (blue - 1.0).abs() < 0.01);
+    assert!(lca.node_scale(2, 0).is_none() && lca.node_scale(0, 17).is_none());
+
+    // The illumination table is 1 on the axis and falls off; the grid lifts the corners.
+    assert!(IlluminationTable::<1>::derive(&lens, &framing, 8, &mut surfaces.clone()).is_err());
+    let table: IlluminationTable =
+        IlluminationTable::derive(&lens, &framing, 64, &mut surfaces.clone()).unwrap();
+    for c in 0..3 {
+        assert_eq!(table.at(c, 0.0), Some(1.0));
+        assert!(table.at(c, framing.corner_mm()).unwrap() < 0.99);
+    }
+    assert!(table.at(3, 0.0).is_none());
+    let mut gains = [0u16; 9 * 7 * 4];
+    table
+        .fill_grid(&framing, CfaPattern::Rggb.block(), &mut gains, 9, 7)
+        .unwrap();
+    let lsc = LensShading::new(9, 7, &gains).unwrap();
+    let (centre, corner) = (lsc.gain_f32(32, 24, 64, 48), lsc.gain_f32(0, 0, 64, 48));
+    assert!(
+        (centre - 1.0).abs() < 0.01 && corner > 1.01,
+        "{centre} {corner}"
+    );
+}

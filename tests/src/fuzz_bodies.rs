@@ -451,4 +451,26 @@ pub fn lens_prescription(data: &[u8]) {
     {
         assert!(v.is_finite(), "the illumination answered {v}");
     }
+    // isp-core's derivation over the same lens, on a small random sensor: an error or
+    // stages that hold.
+    use isp_core::lens_correction::{
+        DistortionFit, IlluminationTable, LensCorrections, SensorFraming,
+    };
+    let size = |i: usize| usize::from(data.get(i).copied().unwrap_or(8) % 40) + 1;
+    let Ok(framing) = SensorFraming::new(size(3), size(4), next(0.1), next(200.0)) else {
+        return;
+    };
+    if let Ok(fix) = LensCorrections::derive(&lens, &framing, max_field, DistortionFit::ChiefRays) {
+        assert!(fix.focal_length_mm.is_finite() && fix.k.iter().all(|v| v.is_finite()));
+    }
+    if let Ok(table) = IlluminationTable::<3>::derive(&lens, &framing, 2, &mut scratch) {
+        let mut gains = [0u16; 2 * 2 * 4];
+        let block = isp_core::CfaPattern::Rggb.block();
+        if table.fill_grid(&framing, block, &mut gains, 2, 2).is_ok() {
+            assert!(
+                isp_core::lsc::LensShading::new(2, 2, &gains).is_ok(),
+                "{gains:?}"
+            );
+        }
+    }
 }
