@@ -12,6 +12,7 @@
 //! | `truth.png` | the ground truth encoded to sRGB (noise-free, no shading, no defects) |
 //! | `truth_srgb.exr`, `truth_camera.exr` | the ground truth, linear sRGB and linear camera RGB |
 //! | `comparison.png` | truth, float ISP and fixed ISP side by side |
+//! | `corrected.png`, `lens_comparison.png` | with `--lens`: the float development with the corrections derived from the lens's prescription ([`lens_corrections`]), and beside `srgb.png` |
 //! | `report.json`, `report.txt` | times, PSNR, ColorChecker CIE 2000 error, AWB error, CCT |
 //!
 //! The truth is scaled to the ISP's output: the scene's linear sRGB times the factor that makes
