@@ -1067,21 +1067,11 @@ pub fn run(
         data: truth8.clone(),
     };
     raw_formats::image::write(&out("truth.png"), &truth_img)?;
-    let mut side = Vec::with_capacity(w * h * 9);
-    for y in 0..h {
-        for img in [truth8, &float_rgb.data, &fixed_rgb.data] {
-            side.extend_from_slice(&img[3 * w * y..3 * w * (y + 1)]);
-        }
-    }
-    raw_formats::image::write(
+    write_side_by_side(
         &out("comparison.png"),
-        &Image {
-            width: 3 * w,
-            height: h,
-            channels: 3,
-            bits: 8,
-            data: side,
-        },
+        w,
+        h,
+        &[truth8, &float_rgb.data, &fixed_rgb.data],
     )?;
 
     // With a real lens: develop again with the corrections derived from its prescription
@@ -1103,21 +1093,11 @@ pub fn run(
         config.distortion = Some(fix.distortion);
         let (_, corrected) = develop::execute(raw_back.into(), &config, false, 8, run)?;
         raw_formats::image::write(&out("corrected.png"), &to8(&corrected))?;
-        let mut side = Vec::with_capacity(w * h * 6);
-        for y in 0..h {
-            for img in [&float_rgb.data, &corrected.data] {
-                side.extend_from_slice(&img[3 * w * y..3 * w * (y + 1)]);
-            }
-        }
-        raw_formats::image::write(
+        write_side_by_side(
             &out("lens_comparison.png"),
-            &Image {
-                width: 2 * w,
-                height: h,
-                channels: 3,
-                bits: 8,
-                data: side,
-            },
+            w,
+            h,
+            &[&float_rgb.data, &corrected.data],
         )?;
     }
 
@@ -1232,6 +1212,32 @@ pub fn run(
         std::fs::write(out(name), text).map_err(|e| raw_formats::FormatError::io(out(name), e))?;
     }
     Ok(DemoOutcome { report, text, json })
+}
+
+/// Writes `w x h` 8-bit RGB images side by side, left to right, as one PNG.
+fn write_side_by_side(
+    path: &std::path::Path,
+    w: usize,
+    h: usize,
+    images: &[&[u16]],
+) -> Result<(), Error> {
+    let mut side = Vec::with_capacity(w * h * 3 * images.len());
+    for y in 0..h {
+        for img in images {
+            side.extend_from_slice(&img[3 * w * y..3 * w * (y + 1)]);
+        }
+    }
+    raw_formats::image::write(
+        path,
+        &Image {
+            width: images.len() * w,
+            height: h,
+            channels: 3,
+            bits: 8,
+            data: side,
+        },
+    )?;
+    Ok(())
 }
 
 fn report_json(r: &DemoReport) -> String {
