@@ -230,7 +230,9 @@ def main():
                 "optics-fixed-focus-dof": "for the whole grid of lenses and subjects "
                 "(firmware_cases::optics_checksum)",
                 "optics-tessar-corrections": "at start-up to derive the ISP's corrections from the "
-                "Tessar's prescription: Brown-Conrady fit, 17 lateral-colour nodes, 9 shading radii "
+                "Tessar's prescription through isp-core's lens_correction: the chief-ray Brown-Conrady "
+                "fit, red's and blue's scales at 17 nodes, relative illumination per colour at 9 "
+                "radii over a 32 x 32 rear-element grid, a 9 x 7 shading grid "
                 "(firmware_cases::lens_corrections_checksum)",
             }.get(name, "for the whole run")
             lines.append(

@@ -892,22 +892,30 @@ const TESSAR: [(f64, f64, f64, Option<&str>); 8] = [
 ];
 /// The Tessar's half field of view, degrees (its file's `field_deg`).
 const TESSAR_HALF_FIELD_DEG: f64 = 20.5;
-/// The wavelength the ISP's green is taken at (camsim's renderer's green), nm.
-const GREEN_NM: f64 = 540.0;
-/// Red's and blue's wavelengths (the renderer's), nm.
-const RED_NM: f64 = 647.5;
-const BLUE_NM: f64 = 442.5;
-/// Radii of the relative-illumination curve: 9 from the centre to the corner.
+/// Radii of the relative-illumination table per colour: 9 from the centre to the corner.
 const SHADING_RADII: usize = 9;
+/// The shading grid the illumination fills: 9 x 7 nodes.
+const SHADING_GRID: (usize, usize) = (9, 7);
 
 /// The ISP's corrections for the Tessar on a `width` x `height` sensor that its field
-/// fills diagonally, derived from the prescription as a camera would at start-up: the
-/// Brown-Conrady fit to its chief rays (and the distortion mesh's window), red's and blue's
-/// lateral-colour scales at the stage's 17 nodes, and relative illumination at 9 radii (a
-/// 16 x 16 grid over the rear element per radius). The checksum of every value's bits.
+/// fills diagonally (focused at infinity), derived from the prescription as a camera would
+/// at start-up through isp-core's `lens_correction` (what `camsim demo --lens` and the
+/// lens_render test run): the Brown-Conrady fit to its chief rays (and the distortion
+/// mesh's window), red's and blue's lateral-colour scales at the stage's 17 nodes, and
+/// relative illumination per colour at 9 radii (a 32 x 32 grid over the rear element per
+/// radius: within about 1 % of a 200 x 200 grid's on the Tessar, where 16 x 16 is 6 % off)
+/// made into a 9 x 7 RGGB shading grid. The checksum of every value's bits.
 pub fn lens_corrections_checksum(width: usize, height: usize) -> Result<u32, CaseError> {
+    use isp_core::lens_correction::{
+        DistortionFit, IlluminationTable, LensCorrectionError, LensCorrections, SensorFraming,
+        RENDER_COLOURS_NM,
+    };
     use optics_core::prescription::glass::{catalogue_glass, Medium, LAMBDA_D_NM};
     use optics_core::prescription::{Prescription, Shape, Surface};
+    let split = |e: LensCorrectionError| match e {
+        LensCorrectionError::Optics(e) => CaseError::Optics(e),
+        LensCorrectionError::Isp(e) => CaseError::Isp(e),
+    };
     let mut surfaces = [Surface::new(Shape::Flat, 1.0, 1.0, Medium::Air); 8];
     for (s, &(radius, thickness, semi, glass)) in surfaces.iter_mut().zip(&TESSAR) {
         let medium = match glass {
@@ -921,49 +929,42 @@ pub fn lens_corrections_checksum(width: usize, height: usize) -> Result<u32, Cas
     }
     let lens = Prescription::new(&surfaces)?;
     let half = TESSAR_HALF_FIELD_DEG.to_radians();
-    // Fit beyond the corner's field, so the mesh's outer nodes are fitted too.
-    let max_field = half * 1.4;
-    let paraxial = lens.paraxial(GREEN_NM)?;
-    let [k1, k2, k3] = lens.fit_brown_conrady(max_field, GREEN_NM)?;
     let (w, h) = (width as f64, height as f64);
-    let pitch = 2.0 * paraxial.efl * libm::tan(half) / libm::hypot(w, h);
-    let centre = [(w - 1.0) / 2.0, (h - 1.0) / 2.0];
-    let focal_px = paraxial.efl / pitch;
-    let model = BrownConrady::from_opencv([k1, k2, 0.0, 0.0, k3])?;
-    let lens_mesh =
-        LensDistortion::new(focal_px, focal_px, centre[0], centre[1], model)?.fitted(width, height);
-    let lca = LateralColour::from_curve(width, height, centre, None, |r| {
-        let scale = |nm| {
-            lens.lateral_colour_scale(r * pitch, nm, GREEN_NM, LAMBDA_D_NM, max_field)
-                .ok()
-                .flatten()
-        };
-        Some([scale(RED_NM)?, scale(BLUE_NM)?])
-    })?;
-    let mesh = lens_mesh.with_lateral_colour(lca);
+    let efl = lens.paraxial(RENDER_COLOURS_NM[1])?.efl;
+    let pitch = 2.0 * efl * libm::tan(half) / libm::hypot(w, h);
+    let film = lens.paraxial(LAMBDA_D_NM)?.bfl;
+    let framing = SensorFraming::new(width, height, pitch, film).map_err(split)?;
+    // Fit beyond the corner's field, so the mesh's outer nodes are fitted too.
+    let fix = LensCorrections::derive(&lens, &framing, half * 1.4, DistortionFit::ChiefRays)
+        .map_err(split)?;
+    let mut scratch = surfaces;
+    let table: IlluminationTable<SHADING_RADII> =
+        IlluminationTable::derive(&lens, &framing, 32, &mut scratch).map_err(split)?;
+    let mut gains = [0u16; SHADING_GRID.0 * SHADING_GRID.1 * 4];
+    table
+        .fill_grid(
+            &framing,
+            CfaPattern::Rggb.block(),
+            &mut gains,
+            SHADING_GRID.0,
+            SHADING_GRID.1,
+        )
+        .map_err(split)?;
     let mut hash = Fnv1a::default();
-    for k in [k1, k2, k3] {
-        hash.u64(k.to_bits());
+    for v in [fix.focal_length_mm, fix.k[0], fix.k[1], fix.k[2]] {
+        hash.u64(v.to_bits());
     }
-    hash.u64(mesh.window_rows(width, height) as u64);
-    hash.u64(lca.reach_rows() as u64);
-    for k in 0..NODES {
-        let r = lca.node_radius(k).unwrap_or(0.0);
-        hash.u64(r.to_bits());
-        for p in [[0, 0], [width - 1, height - 1]] {
+    hash.u64(fix.distortion.window_rows(width, height) as u64);
+    if let Some(lca) = fix.distortion.lateral_colour() {
+        hash.u64(lca.reach_rows() as u64);
+        for k in 0..NODES {
             for c in 0..2 {
-                for q in lca.source_position(c, p[0], p[1]) {
-                    hash.u64(q as u64);
-                }
+                hash.u64(lca.node_scale(c, k).unwrap_or(0.0).to_bits());
             }
         }
     }
-    let mut scratch = surfaces;
-    let corner = libm::hypot(w, h) / 2.0 * pitch;
-    for i in 0..SHADING_RADII {
-        let r = corner * i as f64 / (SHADING_RADII - 1) as f64;
-        let fall_off = lens.illumination_at_height(r, paraxial.bfl, GREEN_NM, 16, &mut scratch)?;
-        hash.u64(fall_off.map_or(u64::MAX, f64::to_bits));
+    for g in gains {
+        hash.u64(u64::from(g));
     }
     Ok(hash.finish())
 }
