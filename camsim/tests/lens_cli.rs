@@ -210,7 +210,7 @@ fn demo_and_render_go_through_a_lens_file() {
     let fix = &v["lens_correction"];
     let f = fix["focal_length_mm"].as_f64().unwrap();
     // The Tessar's 101.5 mm, scaled by the focusing move (the film further back for the
-    // chart at 1.3 m).
+    // chart 1.2 m away).
     assert!(f > 101.0 && f < 125.0, "{fix}");
     assert!(fix["k"].as_array().unwrap().len() == 3, "{fix}");
     let gain = fix["shading_max_gain"].as_f64().unwrap();
