@@ -2,7 +2,7 @@
 //! start-up from the lens it carries: the distortion mesh (a Brown-Conrady fit, with its focal
 //! length), the lateral-colour scales composed into the same resampling, and the shading grid
 //! from relative illumination. optics-core does the optics (`Prescription::fit_brown_conrady`,
-//! `fit_brown_conrady_centroid`, `lateral_colour_scale`, `illumination_at_height`); this
+//! `fit_brown_conrady_centroid`, `lateral_colour_scale`, `illumination_curve`); this
 //! module turns what it finds into the stages' own types for one sensor behind the lens.
 //!
 //! No heap: the prescription borrows the caller's surfaces and the shading grid is the
@@ -235,7 +235,7 @@ impl LensCorrections {
 }
 
 /// `lens`'s relative illumination on `framing`'s film per colour, at `N` (at least 2;
-/// [`SHADING_RADII`] unless given) radii from the centre to the frame's corner (`Prescription::illumination_at_height` over
+/// [`SHADING_RADII`] unless given) radii from the centre to the frame's corner (`Prescription::illumination_curve` over
 /// an `n x n` grid on the rear element, each colour at its wavelength against its own axis),
 /// read linearly in radius: the lens's vignetting as a shading grid is made from it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -263,13 +263,12 @@ impl<const N: usize> IlluminationTable<N> {
         let corner_mm = framing.corner_mm();
         let last = (N - 1) as f64;
         let mut values = [[None; N]; 3];
-        for (colour, row) in values.iter_mut().enumerate() {
-            let nm = framing.colours_nm[colour];
-            for (i, slot) in row.iter_mut().enumerate() {
-                let r = corner_mm * i as f64 / last;
-                *slot =
-                    lens.illumination_at_height(r, framing.film_mm, nm, pupil_points, scratch)?;
-            }
+        let mut radii = [0.0; N];
+        for (i, r) in radii.iter_mut().enumerate() {
+            *r = corner_mm * i as f64 / last;
+        }
+        for (row, &nm) in values.iter_mut().zip(&framing.colours_nm) {
+            lens.illumination_curve(&radii, framing.film_mm, nm, pupil_points, scratch, row)?;
         }
         Ok(Self { corner_mm, values })
     }

@@ -630,6 +630,29 @@ fn corrections_derived_from_a_prescription_reproduce_it() {
     assert!(lens
         .illumination_at_height(1.0, bfl, d, 16, &mut short)
         .is_err());
+    // The curve traces the axis once and gives each radius's value to the bit.
+    let heights = [0.0, 5.0, 10.0, 21.6];
+    let mut curve = [None; 4];
+    let mut curve_scratch = surfaces.clone();
+    lens.illumination_curve(&heights, bfl, d, 96, &mut curve_scratch, &mut curve)
+        .unwrap();
+    for (&h, value) in heights.iter().zip(curve) {
+        assert_eq!(value.unwrap().to_bits(), ri(h).to_bits(), "at {h} mm");
+    }
+    let mut too_short = [None; 3];
+    assert!(lens
+        .illumination_curve(&heights, bfl, d, 96, &mut curve_scratch, &mut too_short)
+        .is_err());
+    assert!(lens
+        .illumination_curve(
+            &[1.0, -1.0],
+            bfl,
+            d,
+            96,
+            &mut curve_scratch,
+            &mut curve[..2]
+        )
+        .is_err());
 }
 
 /// The centroid fit: on the axis the image is centred; over the field the fitted model puts

@@ -9,7 +9,8 @@
 //! - [`Prescription::lateral_colour_scale`]: how much larger a colour's image is than the
 //!   reference colour's at an image radius, `h_c / h_ref` along one chief ray: the factor a
 //!   lateral-colour stage reads that colour's plane at.
-//! - [`Prescription::illumination_at_height`]: relative illumination at an image radius, the
+//! - [`Prescription::illumination_at_height`] (and [`Prescription::illumination_curve`] for
+//!   several radii): relative illumination at an image radius, the
 //!   projected solid angle of the light that reaches that film point (traced from the film
 //!   through the lens turned round, over a grid on the rear element), against the centre's:
 //!   the same quantity the renderer's lens camera weights its samples by, so a shading grid
@@ -286,7 +287,8 @@ impl<T: Real> Prescription<'_, T> {
     /// behind the last vertex, at `wavelength_nm`, against the axis: the projected solid angle
     /// (`sum of cos^4 / d^2` over an `n x n` grid on the rear element's clear aperture) of the
     /// rays from that film point that pass the lens. `scratch` holds the lens turned round (as
-    /// many surfaces as the lens). `None` when no ray from the axis passes.
+    /// many surfaces as the lens). `None` when no ray from the axis passes. For several radii,
+    /// [`Prescription::illumination_curve`] traces the axis once.
     pub fn illumination_at_height(
         &self,
         height_mm: T,
@@ -295,16 +297,68 @@ impl<T: Real> Prescription<'_, T> {
         n: usize,
         scratch: &mut [Surface<T>],
     ) -> Result<Option<T>> {
+        let mut out = [None];
+        self.illumination_curve(
+            &[height_mm],
+            image_distance_mm,
+            wavelength_nm,
+            n,
+            scratch,
+            &mut out,
+        )?;
+        Ok(out[0])
+    }
+
+    /// [`Prescription::illumination_at_height`] at each of `heights_mm` into `out` (as long):
+    /// the lens is turned round and the axis traced once for all of them (a radius of 0 is
+    /// the axis itself, 1), the values are the same to the bit. Every `out` is `None` when no
+    /// ray from the axis passes.
+    ///
+    /// ```
+    /// use optics_core::prescription::{glass::Medium, Prescription, Shape, Surface};
+    /// let bk7 = optics_core::prescription::glass::catalogue_glass("N-BK7").unwrap().medium();
+    /// let surfaces = [
+    ///     Surface::new(Shape::sphere_radius(50.0), 10.0, 5.0, bk7).stop(),
+    ///     Surface::new(Shape::sphere_radius(-50.0), 10.0, 48.0, Medium::Air),
+    /// ];
+    /// let lens = Prescription::new(&surfaces).unwrap();
+    /// let mut scratch = surfaces; // room for the lens turned round
+    /// let mut curve: [Option<f64>; 3] = [None; 3];
+    /// lens.illumination_curve(&[0.0, 4.0, 8.0], 48.0, 587.6, 32, &mut scratch, &mut curve).unwrap();
+    /// let [Some(axis), Some(mid), Some(edge)] = curve else { panic!("no light on the axis") };
+    /// assert_eq!(axis, 1.0);
+    /// // Near the axis the grid's cells (counted by their centres) move it by ~1 %.
+    /// assert!((mid - 1.0).abs() < 0.02);
+    /// assert!(edge < 0.98);
+    /// ```
+    pub fn illumination_curve(
+        &self,
+        heights_mm: &[T],
+        image_distance_mm: T,
+        wavelength_nm: T,
+        n: usize,
+        scratch: &mut [Surface<T>],
+        out: &mut [Option<T>],
+    ) -> Result<()> {
         if !(2..=super::analysis::MAX_GRID).contains(&n) {
             return Err(OpticsError::InvalidParameter {
                 name: "n",
                 allowed: "2..=257",
             });
         }
-        if !(height_mm.is_finite() && height_mm >= T::zero()) {
+        if heights_mm
+            .iter()
+            .any(|h| !(h.is_finite() && *h >= T::zero()))
+        {
             return Err(OpticsError::InvalidParameter {
                 name: "height_mm",
                 allowed: "finite and >= 0",
+            });
+        }
+        if out.len() != heights_mm.len() {
+            return Err(OpticsError::InvalidParameter {
+                name: "out",
+                allowed: "as long as heights_mm",
             });
         }
         if !(image_distance_mm.is_finite() && image_distance_mm > T::zero()) {
@@ -316,10 +370,18 @@ impl<T: Real> Prescription<'_, T> {
         let back = self.reversed_into(scratch)?;
         let axis = projected_solid_angle(&back, T::zero(), image_distance_mm, wavelength_nm, n)?;
         if axis <= T::zero() {
-            return Ok(None);
+            out.fill(None);
+            return Ok(());
         }
-        let here = projected_solid_angle(&back, height_mm, image_distance_mm, wavelength_nm, n)?;
-        checked(here / axis).map(Some)
+        for (slot, &h) in out.iter_mut().zip(heights_mm) {
+            let here = if h == T::zero() {
+                axis
+            } else {
+                projected_solid_angle(&back, h, image_distance_mm, wavelength_nm, n)?
+            };
+            *slot = Some(checked(here / axis)?);
+        }
+        Ok(())
     }
 }
 
