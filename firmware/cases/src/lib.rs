@@ -590,6 +590,17 @@ impl From<OpticsError> for CaseError {
     }
 }
 
+/// The lens-correction derivation's errors are the two crates' own, kept apart.
+impl From<isp_core::lens_correction::LensCorrectionError> for CaseError {
+    fn from(e: isp_core::lens_correction::LensCorrectionError) -> Self {
+        use isp_core::lens_correction::LensCorrectionError;
+        match e {
+            LensCorrectionError::Optics(e) => Self::Optics(e),
+            LensCorrectionError::Isp(e) => Self::Isp(e),
+        }
+    }
+}
+
 impl fmt::Display for CaseError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
@@ -907,15 +918,10 @@ const SHADING_GRID: (usize, usize) = (9, 7);
 /// made into a 9 x 7 RGGB shading grid. The checksum of every value's bits.
 pub fn lens_corrections_checksum(width: usize, height: usize) -> Result<u32, CaseError> {
     use isp_core::lens_correction::{
-        DistortionFit, IlluminationTable, LensCorrectionError, LensCorrections, SensorFraming,
-        RENDER_COLOURS_NM,
+        DistortionFit, IlluminationTable, LensCorrections, SensorFraming, RENDER_COLOURS_NM,
     };
     use optics_core::prescription::glass::{catalogue_glass, Medium, LAMBDA_D_NM};
     use optics_core::prescription::{Prescription, Shape, Surface};
-    let split = |e: LensCorrectionError| match e {
-        LensCorrectionError::Optics(e) => CaseError::Optics(e),
-        LensCorrectionError::Isp(e) => CaseError::Isp(e),
-    };
     let mut surfaces = [Surface::new(Shape::Flat, 1.0, 1.0, Medium::Air); 8];
     for (s, &(radius, thickness, semi, glass)) in surfaces.iter_mut().zip(&TESSAR) {
         let medium = match glass {
@@ -933,23 +939,20 @@ pub fn lens_corrections_checksum(width: usize, height: usize) -> Result<u32, Cas
     let efl = lens.paraxial(RENDER_COLOURS_NM[1])?.efl;
     let pitch = 2.0 * efl * libm::tan(half) / libm::hypot(w, h);
     let film = lens.paraxial(LAMBDA_D_NM)?.bfl;
-    let framing = SensorFraming::new(width, height, pitch, film).map_err(split)?;
+    let framing = SensorFraming::new(width, height, pitch, film)?;
     // Fit beyond the corner's field, so the mesh's outer nodes are fitted too.
-    let fix = LensCorrections::derive(&lens, &framing, half * 1.4, DistortionFit::ChiefRays)
-        .map_err(split)?;
+    let fix = LensCorrections::derive(&lens, &framing, half * 1.4, DistortionFit::ChiefRays)?;
     let mut scratch = surfaces;
     let table: IlluminationTable<SHADING_RADII> =
-        IlluminationTable::derive(&lens, &framing, 32, &mut scratch).map_err(split)?;
+        IlluminationTable::derive(&lens, &framing, 32, &mut scratch)?;
     let mut gains = [0u16; SHADING_GRID.0 * SHADING_GRID.1 * 4];
-    table
-        .fill_grid(
-            &framing,
-            CfaPattern::Rggb.block(),
-            &mut gains,
-            SHADING_GRID.0,
-            SHADING_GRID.1,
-        )
-        .map_err(split)?;
+    table.fill_grid(
+        &framing,
+        CfaPattern::Rggb.block(),
+        &mut gains,
+        SHADING_GRID.0,
+        SHADING_GRID.1,
+    )?;
     let mut hash = Fnv1a::default();
     for v in [fix.focal_length_mm, fix.k[0], fix.k[1], fix.k[2]] {
         hash.u64(v.to_bits());
