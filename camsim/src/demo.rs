@@ -257,6 +257,19 @@ pub struct LensCorrectionReport {
     pub derive_ms: f64,
 }
 
+/// What [`lens_corrections`] derives for a real lens: the stages' own types and the report.
+#[derive(Debug, Clone)]
+pub struct DerivedLensCorrections {
+    /// The distortion mesh with the lateral colour composed in, its focal length and
+    /// coefficients.
+    pub corrections: LensCorrections,
+    /// The lens's own shading grid (Q4.12, RGGB-block layout of [`LensShading`]), to
+    /// multiply with the sensor's.
+    pub shading_gains: Vec<u16>,
+    /// What the demo's report says of them.
+    pub report: LensCorrectionReport,
+}
+
 /// The ISP's corrections for the real lens a scene renders through, derived from its
 /// prescription as rendered (stopped down, focused) on a `width` x `height` frame with the
 /// CFA `pattern`: the distortion mesh with the lateral colour composed in (a Brown-Conrady
@@ -271,7 +284,7 @@ pub fn lens_corrections(
     height: usize,
     pattern: isp_core::CfaPattern,
     grid: (usize, usize),
-) -> Result<Option<(LensCorrections, Vec<u16>, LensCorrectionReport)>, Error> {
+) -> Result<Option<DerivedLensCorrections>, Error> {
     let started = Instant::now();
     let Some(rendered) = scene.camera.lens_as_rendered(width as u32, height as u32)? else {
         return Ok(None);
@@ -328,7 +341,11 @@ pub fn lens_corrections(
         shading_max_gain,
         derive_ms: started.elapsed().as_secs_f64() * 1e3,
     };
-    Ok(Some((fix, gains, report)))
+    Ok(Some(DerivedLensCorrections {
+        corrections: fix,
+        shading_gains: gains,
+        report,
+    }))
 }
 
 fn stage_map<S: serde::Serializer>(stages: &[(String, f64)], s: S) -> Result<S::Ok, S::Error> {
@@ -1078,7 +1095,8 @@ pub fn run(
     // (distortion and lateral colour in one resampling, its vignetting in the shading grid
     // on top of the sensor's), beside the uncorrected development.
     let lens_fix = lens_corrections(scene, w, h, capture.raw.pattern, captured.shading_size)?;
-    if let Some((fix, lens_gains, _)) = &lens_fix {
+    if let Some(lens) = &lens_fix {
+        let lens_gains = &lens.shading_gains;
         let (gw, gh) = captured.shading_size;
         let gains: Vec<u16> = match &captured.shading_grid {
             Some(sensor_gains) => sensor_gains
@@ -1090,7 +1108,7 @@ pub fn run(
         };
         let mut config = captured.isp_config(args.demosaic, denoise, chroma_denoise)?;
         config.lsc = Some(LensShading::new(gw, gh, &gains).map_err(|e| Error::in_stage("lsc", e))?);
-        config.distortion = Some(fix.distortion);
+        config.distortion = Some(lens.corrections.distortion);
         let (_, corrected) = develop::execute(raw_back.into(), &config, false, 8, run)?;
         raw_formats::image::write(&out("corrected.png"), &to8(&corrected))?;
         write_side_by_side(
@@ -1161,7 +1179,7 @@ pub fn run(
             )
         }),
         vignetted_fraction: captured.vignetted_fraction,
-        lens_correction: lens_fix.map(|(_, _, report)| report),
+        lens_correction: lens_fix.map(|lens| lens.report),
         sensor_s: captured.sensor_s,
         exposure_s: capture.exposure_s,
         iso: args.iso,
