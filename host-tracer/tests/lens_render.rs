@@ -7,8 +7,8 @@
 //! before and after the corrections derived from the prescription as rendered
 //! (`lens_correction::LensCorrections`: a Brown-Conrady fit to where each field's light lands
 //! on the film, with its focal length, and the lateral-colour scales, applied in isp-core's
-//! one resampling), at 1024 samples a pixel so the dots' centroids are good to a few
-//! hundredths of a pixel.
+//! one resampling), at 1024 samples a pixel (the singlet, whose defocused colours spread
+//! wider, at 8192) so the dots' centroids are good to a few hundredths of a pixel.
 
 use std::path::{Path, PathBuf};
 
@@ -207,8 +207,17 @@ fn dots_through_each_lens_land_where_the_derived_corrections_put_them_back() {
         let d = 1000.0; // scene units (m): far enough to be at infinity for these lenses
                         // A 7 x 5 grid of small glowing spheres spanning 90 % of the frame, at 1000 m.
         let (cx, cy) = (f64::from(w) / 2.0 - 0.5, f64::from(h) / 2.0 - 0.5);
+        // Wide open, except the f/0.96 condenser, used at f/4 as a camera would use it (wide
+        // open its dots are blurs many pixels across with a core near the chief ray and a
+        // centroid pixels away: no one point is "where the dot is"). Even at f/4 the singlet's
+        // longitudinal colour spreads its blue dot over ~6 pixels, so few of a pixel's samples
+        // reach the dot and its centroid is noisy: at 1024 samples the four corners' blue
+        // read 0.05-0.33 px apart where the prescription says 0.18 (measured at 16384: 0.13 to
+        // 0.17); 8 times the samples bring that noise under the bound's scale.
+        let singlet = file.name.contains("Aspheric singlet");
+        let (f_number, spp) = if singlet { (4.0, 8192) } else { (0.0, 1024) };
         let mut text = format!(
-            "[film]\nwidth = {w}\nheight = {h}\nspp = 1024\n\n[camera]\nposition = [0.0, 0.0, 0.0]\n\
+            "[film]\nwidth = {w}\nheight = {h}\nspp = {spp}\n\n[camera]\nposition = [0.0, 0.0, 0.0]\n\
              target = [0.0, 0.0, -1.0]\nsensor_width_mm = {}\n\n",
             pitch * f64::from(w)
         );
@@ -231,14 +240,6 @@ fn dots_through_each_lens_land_where_the_derived_corrections_put_them_back() {
             }
         }
         let mut scene = scene_file::parse(&text, "dots", Path::new(".")).unwrap();
-        // Wide open, except the f/0.96 condenser, used at f/4 as a camera would use it (wide
-        // open its dots are blurs many pixels across with a core near the chief ray and a
-        // centroid pixels away: no one point is "where the dot is").
-        let f_number = if file.name.contains("Aspheric singlet") {
-            4.0
-        } else {
-            0.0
-        };
         scene.camera.focal_length_mm = efl as f32;
         scene.camera.aperture_radius_mm = if f_number > 0.0 {
             (efl / (2.0 * f_number)) as f32
@@ -303,12 +304,14 @@ fn dots_through_each_lens_land_where_the_derived_corrections_put_them_back() {
             }
             dist_before = dist_before.max(gap(raw, *ideal));
             dist_after = dist_after.max(gap(fixed, rectilinear));
-            // Lateral colour at the corners: red and blue against green.
+            // Lateral colour at the corners: red and blue against green, each colour's whole
+            // dot (8 px: a 4-px window cut the singlet's 6-px blue blur and read it 0.3 px on
+            // the wrong side; the next dot is 36 px away).
             let corner = matches!(n, 0 | 6 | 28 | 34);
             if corner {
                 for c in [0, 2] {
-                    let before = centroid(&image.rgb, w, h, c, raw, 4.0);
-                    let after = centroid(&corrected, w, h, c, fixed, 4.0);
+                    let before = centroid(&image.rgb, w, h, c, raw, 8.0);
+                    let after = centroid(&corrected, w, h, c, fixed, 8.0);
                     lc_before = lc_before.max(gap(before, raw));
                     lc_after = lc_after.max(gap(after, fixed));
                 }
@@ -323,23 +326,17 @@ fn dots_through_each_lens_land_where_the_derived_corrections_put_them_back() {
             "{}",
             file.name
         );
-        // Issue 58's bounds, 0.1 px of distortion and 0.2 px of lateral colour left, hold for
-        // five lenses. Not yet for the aspheric singlet (see the issue's note): at f/4 its
-        // corrected dots are 0.115 px off and its corners' colours 0.45 px apart (a singlet's
-        // red and blue blurs, each defocused by its longitudinal colour, are centred off
-        // their chief rays; centroid-based scales mend the Cooke, double Gauss and telephoto
-        // but not it, and spoil the wide angle): printed, not held.
-        if !file.name.contains("Aspheric singlet") {
-            assert!(
-                dist_after <= 0.1,
-                "{}: {dist_before} -> {dist_after}",
-                file.name
-            );
-            assert!(
-                lc_after <= 0.2 && lc_after <= lc_before + 0.01,
-                "{}: lateral colour {lc_before} -> {lc_after}",
-                file.name
-            );
-        }
+        // Issue 58's bounds: at most 0.1 px of distortion and 0.2 px of lateral colour left,
+        // and the colours no further apart than before.
+        assert!(
+            dist_after <= 0.1,
+            "{}: {dist_before} -> {dist_after}",
+            file.name
+        );
+        assert!(
+            lc_after <= 0.2 && lc_after <= lc_before + 0.01,
+            "{}: lateral colour {lc_before} -> {lc_after}",
+            file.name
+        );
     }
 }
