@@ -68,7 +68,8 @@ pub struct LateralColour {
 
 impl LateralColour {
     /// A correction for `width x height` frames about `centre` (pixels, `(0, 0)` the top-left
-    /// pixel's centre), nodes out to `r_max` pixels (`None`: the furthest corner), with red's
+    /// pixel's centre), nodes out to `r_max` pixels (`None`: the furthest corner, at least 1
+    /// pixel away), with red's
     /// and blue's scale at each node. Errors for an empty or too large frame, a centre or
     /// radius that is not finite, or scales outside [`SCALE_RANGE`].
     pub fn new(
@@ -97,7 +98,8 @@ impl LateralColour {
             let dy = centre[1].abs().max((height as f64 - 1.0 - centre[1]).abs());
             libm::hypot(dx, dy)
         };
-        let r_max = r_max.unwrap_or(corner);
+        // A frame of one or two pixels has its corner within a pixel of the centre.
+        let r_max = r_max.unwrap_or(corner.max(1.0));
         if !(1.0..=2.0 * side).contains(&r_max) {
             return Err(IspError::InvalidParameter {
                 name: "lateral colour r_max",
